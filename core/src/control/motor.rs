@@ -1,0 +1,86 @@
+//! The complete motor step shared by the firmware and the simulator: checks, Eq. 7 or Eq. 16,
+//! saturation.
+
+use crate::control::robust::{joint_torque_for_modal_accel, modal_damping_accel};
+use crate::control::tracking::{Reference, eq7_with};
+use crate::fault::Fault;
+use crate::limits::saturate2;
+use crate::model::Model;
+use crate::params::{Gains, Limits};
+use crate::real::Real;
+use crate::trajectory::JointTarget;
+use crate::{Vector2, Vector4};
+
+/// Which motor law runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MotorLaw {
+    /// Eq. 7 alone.
+    #[default]
+    Tracking,
+    /// Eq. 16: Eq. 7 plus the robust modal damping of Eq. 11, realized through the joints.
+    Robust,
+}
+
+/// What the motor step returns besides the torques.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotorOutput<T> {
+    /// Saturated motor torques `τ` [N·m].
+    pub tau: Vector2<T>,
+    /// Joint tracking error `θ − θ_d` [rad].
+    pub error: Vector2<T>,
+    /// `true` if a torque hit its limit this step.
+    pub saturated: bool,
+}
+
+/// The motor controller: model, gains and limits, no other state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotorController<T> {
+    /// The model used for compensation.
+    pub model: Model<T>,
+    /// Gains of Eqs. 7 and 11.
+    pub gains: Gains<T>,
+    /// Actuator limits.
+    pub limits: Limits<T>,
+    /// Eq. 7 or Eq. 16.
+    pub law: MotorLaw,
+}
+
+impl<T: Real> MotorController<T> {
+    /// One motor step at time `t` [s] for the state `(q, q̇)` (measured or estimated).
+    /// A non-finite input is a [`Fault::NonFinite`]; the caller then applies the safe state.
+    pub fn step(
+        &self,
+        t: T,
+        q: &Vector4<T>,
+        qd: &Vector4<T>,
+        target: &JointTarget<T>,
+    ) -> Result<MotorOutput<T>, Fault> {
+        let finite = |v: &Vector4<T>| v.iter().all(|x| x.finite());
+        if !t.finite() || !finite(q) || !finite(qd) {
+            return Err(Fault::NonFinite);
+        }
+        let b = self.model.inertia(q);
+        let c = self.model.coriolis(q, qd);
+        let r = Reference::new(&self.gains.lambda, q, qd, target);
+        let u = eq7_with(&self.model, &b, &c, &self.gains.kp, &r);
+        let mut tau = Vector2::new(u.x, u.y);
+        if self.law == MotorLaw::Robust {
+            let a = modal_damping_accel(
+                &self.gains,
+                t,
+                &Vector2::new(qd.z, qd.w),
+                &Vector2::new(r.s.z, r.s.w),
+            );
+            tau += joint_torque_for_modal_accel(&b, &a, self.gains.mu);
+        }
+        if !(tau.x.finite() && tau.y.finite()) {
+            return Err(Fault::Singular);
+        }
+        let sat = saturate2(&tau, &self.limits.tau_max);
+        Ok(MotorOutput {
+            tau: sat,
+            error: Vector2::new(r.q_tilde.x, r.q_tilde.y),
+            saturated: sat != tau,
+        })
+    }
+}

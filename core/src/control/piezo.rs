@@ -1,0 +1,250 @@
+//! The piezo patch on link 2 and its vibration-damping law (Eqs. 17–19).
+//!
+//! A piezoceramic actuator on the top face and a PVDF film sensor on the bottom face cover the
+//! same span `[x_a, x_a + l_a]` of link 2. Both couple to the modes through the difference of
+//! the mode-shape slopes across the patch, `Δφ'_j = φ'_j(x_a + l_a) − φ'_j(x_a)` [1/(m·√kg)]:
+//!
+//! - actuator (Eq. 18): a voltage `V_a` [V] bends the patch with a moment `k_a V_a` [N·m]; the
+//!   modal force is `C_a V_a` with `C_a = k_a Δφ'`;
+//! - sensor (Eq. 19): the film voltage is `V_f = k_s Δφ'ᵀ δ` [V], so `V_f = c_s C_aᵀ δ` with
+//!   `c_s = k_s / k_a`;
+//! - law (Eq. 17): `V_a = −k_c V̇_f`, with `V̇_f` from a filtered derivative ([`RateFilter`]).
+//!   The modal force is then `−k_c c_s C_a C_aᵀ δ̇`, the dissipation term `C_a K_c C_aᵀ c_s` of
+//!   Eq. 24 with the scalar gain `K_c = k_c` [s]; the power it injects into the modes,
+//!   `δ̇ᵀ C_a V_a = −k_c c_s (C_aᵀ δ̇)²`, is never positive.
+//!
+//! Polarities: the amplifier and the film are wired so that `k_a > 0` and `k_s > 0`; the sign of
+//! the physical `d31` is absorbed there.
+//!
+//! Constants the paper leaves out, and our choices (`docs/model.md`):
+//! - `k_a = E_b E_c b t_b² |d31| / (2 (E_b t_b + 6 E_c t_c))`, the Crawley–de Luis induced
+//!   moment of a bonded patch (the paper's Eq. 18 has the same denominator; its numerator is
+//!   garbled and its `1/(ρ_b A_b)` belongs to another mode normalization);
+//! - `k_s = g31 E_f t_f z_f / l_a`, the open-circuit voltage of a film of capacitance `C` per
+//!   area whose mid-plane lies `z_f = (t_b + t_f)/2` from the beam's neutral axis: charge
+//!   `e31 b z_f Δw'` over capacitance `C b l_a`, with `e31/C = g31 E_f t_f`.
+
+use crate::limits::saturate;
+use crate::modes::UniformMode;
+use crate::real::Real;
+use crate::{Vector2, Vector4};
+
+/// Material and section data of the beam and the piezo layers (the paper's table, SI units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiezoMaterial<T> {
+    /// Young's modulus of the beam `E_b` [Pa].
+    pub e_b: T,
+    /// Young's modulus of the piezoceramic `E_c` [Pa].
+    pub e_c: T,
+    /// Young's modulus of the film `E_f` [Pa].
+    pub e_f: T,
+    /// Beam thickness `t_b` [m].
+    pub t_b: T,
+    /// Ceramic thickness `t_c` [m].
+    pub t_c: T,
+    /// Film thickness `t_f` [m].
+    pub t_f: T,
+    /// Width of beam, ceramic and film `b` [m].
+    pub b: T,
+    /// Ceramic strain constant `d31` [m/V] (sign ignored, see the module docs).
+    pub d31: T,
+    /// Film voltage constant `g31` [V·m/N].
+    pub g31: T,
+    /// Film capacitance per area `C` [F/m²].
+    pub c_area: T,
+}
+
+impl<T: Real> Default for PiezoMaterial<T> {
+    /// The paper's values: `E_b = 65 GPa`, `E_c = 64 GPa`, `E_f = 2 GPa`, `t_b = t_c = 0.8 mm`,
+    /// `t_f = 28 µm`, `b = 25 mm`, `d31 = −300 pm/V`, `g31 = 0.216 V·m/N`, `C = 380 pF/cm²`.
+    fn default() -> Self {
+        Self {
+            e_b: T::c(65e9),
+            e_c: T::c(64e9),
+            e_f: T::c(2e9),
+            t_b: T::c(0.8e-3),
+            t_c: T::c(0.8e-3),
+            t_f: T::c(0.028e-3),
+            b: T::c(25e-3),
+            d31: T::c(-300e-12),
+            g31: T::c(216e-3),
+            c_area: T::c(380e-12 / 1e-4),
+        }
+    }
+}
+
+impl<T: Real> PiezoMaterial<T> {
+    /// Bending moment per actuator volt `k_a` [N·m/V].
+    pub fn moment_per_volt(&self) -> T {
+        let num = self.e_b * self.e_c * self.b * self.t_b * self.t_b * self.d31.abs();
+        num / (T::c(2.0) * (self.e_b * self.t_b + T::c(6.0) * self.e_c * self.t_c))
+    }
+
+    /// Film voltage per radian of slope difference across a patch of length `l_a` [V/rad].
+    pub fn film_volts_per_slope(&self, l_a: T) -> T {
+        let z_f = (self.t_b + self.t_f) * T::c(0.5);
+        self.g31 * self.e_f * self.t_f * z_f / l_a
+    }
+}
+
+/// A collocated actuator/film pair on link 2.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiezoPatch<T> {
+    /// Start of the patch from joint 2 `x_a` [m].
+    pub x_a: T,
+    /// Length of the patch `l_a` [m].
+    pub l_a: T,
+    /// `Δφ'_j` across the patch [1/(m·√kg)].
+    pub slope_diff: Vector2<T>,
+    /// Actuator moment per volt `k_a` [N·m/V].
+    pub k_a: T,
+    /// Film volts per radian of slope difference `k_s` [V/rad].
+    pub k_s: T,
+}
+
+impl<T: Real> PiezoPatch<T> {
+    /// A patch at `[x_a, x_a + l_a]` [m] on a uniform link of mass `m2` [kg] and length `a2` [m]
+    /// (the controller's default mode shapes).
+    pub fn uniform(material: &PiezoMaterial<T>, m2: T, a2: T, x_a: T, l_a: T) -> Self {
+        let m = [UniformMode::new(0, m2, a2), UniformMode::new(1, m2, a2)];
+        let d = |m: &UniformMode<T>| m.slope(x_a + l_a) - m.slope(x_a);
+        Self {
+            x_a,
+            l_a,
+            slope_diff: Vector2::new(d(&m[0]), d(&m[1])),
+            k_a: material.moment_per_volt(),
+            k_s: material.film_volts_per_slope(l_a),
+        }
+    }
+
+    /// The paper's optimum `x_a = 0.09 m`, `l_a = 0.35 m` on the paper's link 2.
+    pub fn paper() -> Self {
+        Self::uniform(
+            &PiezoMaterial::default(),
+            T::c(0.3),
+            T::c(0.7),
+            T::c(0.09),
+            T::c(0.35),
+        )
+    }
+
+    /// Input vector `C_a = k_a Δφ'` (Eq. 18): modal force per actuator volt.
+    pub fn c_a(&self) -> Vector2<T> {
+        self.slope_diff * self.k_a
+    }
+
+    /// Sensor constant `c_s = k_s/k_a` of Eq. 19 (`V_f = c_s C_aᵀ δ`).
+    pub fn c_s(&self) -> T {
+        self.k_s / self.k_a
+    }
+
+    /// Film voltage `V_f = k_s Δφ'ᵀ δ` [V] (Eq. 19) for the generalized coordinates `q`.
+    pub fn film_voltage(&self, q: &Vector4<T>) -> T {
+        self.k_s * self.slope_diff.dot(&Vector2::new(q.z, q.w))
+    }
+
+    /// Generalized force `[0, 0, C_a V_a]` of an actuator voltage `v_a` [V].
+    pub fn generalized_force(&self, v_a: T) -> Vector4<T> {
+        let f = self.c_a() * v_a;
+        Vector4::new(T::zero(), T::zero(), f.x, f.y)
+    }
+}
+
+/// Filtered derivative `H(s) = s / (1 + s/ω_c)`, discretized with the bilinear (Tustin)
+/// transform at period `T`:
+/// `y_k = a y_{k−1} + b (x_k − x_{k−1})`, `a = (2 − ω_c T)/(2 + ω_c T)`, `b = 2 ω_c/(2 + ω_c T)`.
+/// The first sample only initializes `x_{k−1}` (output 0), so switching on gives no spike.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RateFilter<T> {
+    a: T,
+    b: T,
+    x_prev: T,
+    y: T,
+    primed: bool,
+}
+
+impl<T: Real> RateFilter<T> {
+    /// A filter with corner `cutoff_hz` [Hz] sampled every `period` [s].
+    pub fn new(cutoff_hz: T, period: T) -> Self {
+        let wc = T::c(core::f64::consts::TAU) * cutoff_hz;
+        let den = T::c(2.0) + wc * period;
+        Self {
+            a: (T::c(2.0) - wc * period) / den,
+            b: T::c(2.0) * wc / den,
+            x_prev: T::zero(),
+            y: T::zero(),
+            primed: false,
+        }
+    }
+
+    /// Feeds the sample `x` and returns the filtered rate [units of x per s].
+    pub fn update(&mut self, x: T) -> T {
+        if self.primed {
+            self.y = self.a * self.y + self.b * (x - self.x_prev);
+        } else {
+            self.primed = true;
+        }
+        self.x_prev = x;
+        self.y
+    }
+
+    /// Forgets the history (after a fault or a reset).
+    pub fn reset(&mut self) {
+        self.x_prev = T::zero();
+        self.y = T::zero();
+        self.primed = false;
+    }
+}
+
+/// Gains of the piezo loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiezoGains<T> {
+    /// Rate-feedback gain `k_c` [s] (V of actuator per V/s of film).
+    pub k_c: T,
+    /// Corner of the derivative filter [Hz].
+    pub cutoff_hz: T,
+}
+
+impl<T: Real> Default for PiezoGains<T> {
+    /// `k_c = 2 s`, corner 100 Hz (7 times the second mode; `docs/model.md`).
+    fn default() -> Self {
+        Self {
+            k_c: T::c(2.0),
+            cutoff_hz: T::c(100.0),
+        }
+    }
+}
+
+/// The piezo loop: `V_a = sat(−k_c V̇_f)` (Eq. 17).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiezoLaw<T> {
+    filter: RateFilter<T>,
+    k_c: T,
+    v_max: T,
+}
+
+impl<T: Real> PiezoLaw<T> {
+    /// A law sampled every `period` [s], saturating at `±v_max` [V].
+    pub fn new(gains: &PiezoGains<T>, period: T, v_max: T) -> Self {
+        Self {
+            filter: RateFilter::new(gains.cutoff_hz, period),
+            k_c: gains.k_c,
+            v_max,
+        }
+    }
+
+    /// One step: the film voltage `v_f` [V] in, the actuator command [V] out.
+    /// A non-finite `v_f` commands 0 V and restarts the filter.
+    pub fn step(&mut self, v_f: T) -> T {
+        if !v_f.finite() {
+            self.filter.reset();
+            return T::zero();
+        }
+        saturate(-self.k_c * self.filter.update(v_f), self.v_max)
+    }
+
+    /// Forgets the filter's history.
+    pub fn reset(&mut self) {
+        self.filter.reset();
+    }
+}

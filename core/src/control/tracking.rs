@@ -1,0 +1,79 @@
+//! Passivity-based tracking with dynamics compensation (Eq. 7):
+//!
+//! `u = B(q) q̈_r + C(q, q̇) q̇_r + K_e q_d + D q̇_r − K_p s`,
+//!
+//! with the tracking error `q̃ = q − q_d`, the reference velocity `q̇_r = q̇_d − Λ q̃`, its
+//! derivative `q̈_r = q̈_d − Λ (q̇ − q̇_d)`, and the reference error `s = q̇ − q̇_r`. Gravity is
+//! ignored (`g = 0`). Eqs. 16 and 20 print `C(q, q̇) q̇` where Eq. 7 has `C(q, q̇) q̇_r`; the
+//! Lyapunov argument of Eqs. 8–10 needs `q̇_r`, which we use throughout.
+
+use crate::model::Model;
+use crate::params::Gains;
+use crate::real::Real;
+use crate::trajectory::JointTarget;
+use crate::{Matrix4, Vector4};
+
+/// The reference signals of Eq. 7.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reference<T> {
+    /// Tracking error `q̃ = q − q_d`.
+    pub q_tilde: Vector4<T>,
+    /// Reference velocity `q̇_r = q̇_d − Λ q̃`.
+    pub qd_r: Vector4<T>,
+    /// Reference acceleration `q̈_r = q̈_d − Λ (q̇ − q̇_d)`.
+    pub qdd_r: Vector4<T>,
+    /// Reference error `s = q̇ − q̇_r = (q̇ − q̇_d) + Λ q̃`.
+    pub s: Vector4<T>,
+}
+
+impl<T: Real> Reference<T> {
+    /// Reference signals for the state `(q, q̇)` and the target (`δ_d = 0`).
+    pub fn new(
+        lambda: &Vector4<T>,
+        q: &Vector4<T>,
+        qd: &Vector4<T>,
+        target: &JointTarget<T>,
+    ) -> Self {
+        let (q_d, qd_d, qdd_d) = target.generalized();
+        let q_tilde = q - q_d;
+        let qd_tilde = qd - qd_d;
+        let qd_r = qd_d - lambda.component_mul(&q_tilde);
+        let qdd_r = qdd_d - lambda.component_mul(&qd_tilde);
+        Self {
+            q_tilde,
+            qd_r,
+            qdd_r,
+            s: qd - qd_r,
+        }
+    }
+}
+
+/// Eq. 7: the generalized force over all four coordinates, given `B(q)` and `C(q, q̇)`.
+pub fn eq7_with<T: Real>(
+    model: &Model<T>,
+    b: &Matrix4<T>,
+    c: &Matrix4<T>,
+    kp: &Vector4<T>,
+    r: &Reference<T>,
+) -> Vector4<T> {
+    // K_e q_d = 0: the desired deflections are zero.
+    b * r.qdd_r + c * r.qd_r + model.damping_force(&r.qd_r) - kp.component_mul(&r.s)
+}
+
+/// Eq. 7 from the state: `u = B q̈_r + C q̇_r + K_e q_d + D q̇_r − K_p s`.
+pub fn eq7<T: Real>(
+    model: &Model<T>,
+    gains: &Gains<T>,
+    q: &Vector4<T>,
+    qd: &Vector4<T>,
+    target: &JointTarget<T>,
+) -> Vector4<T> {
+    let r = Reference::new(&gains.lambda, q, qd, target);
+    eq7_with(
+        model,
+        &model.inertia(q),
+        &model.coriolis(q, qd),
+        &gains.kp,
+        &r,
+    )
+}

@@ -1,0 +1,44 @@
+//! Faults and the safe state.
+//!
+//! Every fault maps to the same safe state: zero motor torque, zero piezo voltage, amplifiers
+//! disabled. The controller latches the first fault until an explicit reset.
+
+/// Why the controller went to the safe state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fault {
+    /// A measurement was NaN or infinite.
+    NonFinite,
+    /// A measurement was outside its physical range.
+    OutOfRange,
+    /// No new sample arrived in time.
+    Stale,
+    /// A control task overran its period.
+    Overrun,
+    /// An amplifier reported a fault.
+    Amplifier,
+    /// The configuration failed validation.
+    InvalidConfig,
+    /// The inertia matrix could not be factored (non-finite state).
+    Singular,
+}
+
+impl Fault {
+    /// A short, stable name for logs and telemetry.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::NonFinite => "non-finite measurement",
+            Self::OutOfRange => "measurement out of range",
+            Self::Stale => "stale measurement",
+            Self::Overrun => "control task overrun",
+            Self::Amplifier => "amplifier fault",
+            Self::InvalidConfig => "invalid configuration",
+            Self::Singular => "inertia matrix not positive definite",
+        }
+    }
+}
+
+impl core::fmt::Display for Fault {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}

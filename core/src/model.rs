@@ -1,0 +1,203 @@
+//! The Lagrangian model of the arm (Eqs. 5–6):
+//! `B(q) q̈ + C(q, q̇) q̇ + K_e q + D q̇ = u`, gravity ignored, `u` the generalized forces.
+//!
+//! ## Kinetic energy (assumed modes, De Luca–Siciliano form)
+//! A point at distance `x` along link 2, deflected by `w(x) = Σ φ_j(x) δ_j`, moves, in the
+//! frame of link 2 (angle `α = θ1 + θ2`), with velocity
+//! `(a1 θ̇1 sin θ2 − α̇ w,  a1 θ̇1 cos θ2 + α̇ x + ẇ)`. Integrating `½ρ|v|²` over the link and
+//! adding link 1, motor 2 (point mass `m_h2` at joint 2) and the rotor inertias gives
+//!
+//! - `b11 = A + J(δ) + 2h`,  `b12 = J(δ) + h`,  `b22 = J(δ)`,
+//! - `b1,2+j = a1 cos θ2 · v_j + w_j`,  `b2,2+j = w_j`,  `B_δδ = I`,
+//!
+//! with `A = I_h1 + I_1 + m1 a1²/4 + (m_h2 + m2) a1²`, `J(δ) = I_h2 + I_2x + m2 a2²/3 + δᵀδ`,
+//! `h(θ2, δ) = a1 (cos θ2 · m2 a2/2 − sin θ2 · vᵀδ)`, `v_j = ∫ρφ_j`, `w_j = ∫ρxφ_j`.
+//! All second-order terms in δ are kept; axial foreshortening is neglected.
+//!
+//! `C` comes from the Christoffel symbols of `B`, written as `C = ½(Ḃ + Y − Yᵀ)` with
+//! `Y_ij = Σ_k ∂b_ik/∂q_j q̇_k`, so `Ḃ − 2C = Yᵀ − Y` is skew-symmetric by construction.
+
+use nalgebra::Cholesky;
+
+use crate::params::ArmParams;
+use crate::real::Real;
+use crate::{Matrix4, Vector2, Vector4};
+
+/// The arm model: parameters plus the constants of `B(q)` computed once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Model<T> {
+    /// The parameters the model was built from.
+    pub params: ArmParams<T>,
+    /// `A = I_h1 + I_1 + m1 a1²/4 + (m_h2 + m2) a1²` [kg·m²].
+    a_const: T,
+    /// `J(0) = I_h2 + I_2x + m2 a2²/3` [kg·m²].
+    j_const: T,
+    /// `a1 · m2 a2/2` [kg·m²].
+    a1_s2: T,
+    /// `a1 v_j` [√kg·m²].
+    a1_v: Vector2<T>,
+    /// `K = diag(ω_j²)` [1/s²].
+    k: Vector2<T>,
+    /// `D = diag(2 ζ_j ω_j)` [1/s].
+    d: Vector2<T>,
+}
+
+impl<T: Real> Model<T> {
+    /// Builds the model; call [`ArmParams::validate`] first for user-supplied values.
+    pub fn new(params: ArmParams<T>) -> Self {
+        let p = &params;
+        let half = T::c(0.5);
+        let a_const =
+            p.i_h1 + p.i_1 + p.m1 * p.a1 * p.a1 * T::c(0.25) + (p.m_h2 + p.m2) * p.a1 * p.a1;
+        let j_const = p.i_h2 + p.i_2_extra + p.m2 * p.a2 * p.a2 / T::c(3.0);
+        let w = p.modes.omega;
+        Self {
+            a_const,
+            j_const,
+            a1_s2: p.a1 * p.m2 * p.a2 * half,
+            a1_v: p.modes.mass_integral * p.a1,
+            k: w.component_mul(&w),
+            d: (p.modes.zeta * T::c(2.0)).component_mul(&w),
+            params,
+        }
+    }
+
+    /// Inertia matrix `B(q)` [kg·m² on the joints, mixed units elsewhere].
+    pub fn inertia(&self, q: &Vector4<T>) -> Matrix4<T> {
+        let (s2, c2) = q.y.lsin_cos();
+        let delta = Vector2::new(q.z, q.w);
+        let jd = self.j_const + delta.dot(&delta);
+        let h = self.a1_s2 * c2 - s2 * self.a1_v.dot(&delta);
+        let w = self.params.modes.moment_integral;
+        let b13 = self.a1_v.x * c2 + w.x;
+        let b14 = self.a1_v.y * c2 + w.y;
+        let b11 = self.a_const + jd + h + h;
+        let b12 = jd + h;
+        let (o, z) = (T::one(), T::zero());
+        Matrix4::new(
+            b11, b12, b13, b14, //
+            b12, jd, w.x, w.y, //
+            b13, w.x, o, z, //
+            b14, w.y, z, o,
+        )
+    }
+
+    /// Partial derivatives `∂B/∂q_k`, k = 0..3 (`∂B/∂θ1 = 0`).
+    pub fn inertia_partials(&self, q: &Vector4<T>) -> [Matrix4<T>; 4] {
+        let (s2, c2) = q.y.lsin_cos();
+        let delta = Vector2::new(q.z, q.w);
+        let z = T::zero();
+        let two = T::c(2.0);
+        // ∂/∂θ2: only h and b1,2+j depend on θ2.
+        let dh = -self.a1_s2 * s2 - c2 * self.a1_v.dot(&delta);
+        let d13 = -self.a1_v.x * s2;
+        let d14 = -self.a1_v.y * s2;
+        let d_theta2 = Matrix4::new(
+            two * dh,
+            dh,
+            d13,
+            d14, //
+            dh,
+            z,
+            z,
+            z, //
+            d13,
+            z,
+            z,
+            z, //
+            d14,
+            z,
+            z,
+            z,
+        );
+        // ∂/∂δ_j: J(δ) gives 2δ_j, h gives −a1 sin θ2 v_j.
+        let d_delta = |dj: T, a1vj: T| {
+            let dj2 = two * dj;
+            let dhj = -s2 * a1vj;
+            Matrix4::new(
+                dj2 + two * dhj,
+                dj2 + dhj,
+                z,
+                z, //
+                dj2 + dhj,
+                dj2,
+                z,
+                z, //
+                z,
+                z,
+                z,
+                z, //
+                z,
+                z,
+                z,
+                z,
+            )
+        };
+        [
+            Matrix4::zeros(),
+            d_theta2,
+            d_delta(q.z, self.a1_v.x),
+            d_delta(q.w, self.a1_v.y),
+        ]
+    }
+
+    /// Coriolis and centrifugal matrix `C(q, q̇)` from the Christoffel symbols of `B`.
+    pub fn coriolis(&self, q: &Vector4<T>, qd: &Vector4<T>) -> Matrix4<T> {
+        let db = self.inertia_partials(q);
+        let mut b_dot = Matrix4::zeros();
+        let mut y = Matrix4::zeros();
+        for (k, dbk) in db.iter().enumerate() {
+            let qk = qd.get(k).copied().unwrap_or(T::zero());
+            b_dot += dbk * qk;
+            y.set_column(k, &(dbk * qd));
+        }
+        (b_dot + y - y.transpose()) * T::c(0.5)
+    }
+
+    /// Modal stiffness `K = diag(ω1², ω2²)` [1/s²] (the lower block of `K_e`).
+    pub fn modal_stiffness(&self) -> Vector2<T> {
+        self.k
+    }
+
+    /// Modal damping `D = diag(2ζ1ω1, 2ζ2ω2)` [1/s] (the lower block of the 4×4 `D`).
+    pub fn modal_damping(&self) -> Vector2<T> {
+        self.d
+    }
+
+    /// `K_e q`: elastic forces (zero on the joint rows).
+    pub fn elastic_force(&self, q: &Vector4<T>) -> Vector4<T> {
+        Vector4::new(T::zero(), T::zero(), self.k.x * q.z, self.k.y * q.w)
+    }
+
+    /// `D q̇`: structural damping forces (zero on the joint rows).
+    pub fn damping_force(&self, qd: &Vector4<T>) -> Vector4<T> {
+        Vector4::new(T::zero(), T::zero(), self.d.x * qd.z, self.d.y * qd.w)
+    }
+
+    /// Kinetic energy `½ q̇ᵀ B(q) q̇` [J].
+    pub fn kinetic_energy(&self, q: &Vector4<T>, qd: &Vector4<T>) -> T {
+        qd.dot(&(self.inertia(q) * qd)) * T::c(0.5)
+    }
+
+    /// Elastic potential energy `½ δᵀ K δ` [J].
+    pub fn potential_energy(&self, q: &Vector4<T>) -> T {
+        (self.k.x * q.z * q.z + self.k.y * q.w * q.w) * T::c(0.5)
+    }
+
+    /// Forward dynamics: `q̈ = B⁻¹ (u − C q̇ − K_e q − D q̇)` through a Cholesky solve.
+    /// `None` if `B` is not numerically positive definite (non-finite state).
+    pub fn acceleration(
+        &self,
+        q: &Vector4<T>,
+        qd: &Vector4<T>,
+        u: &Vector4<T>,
+    ) -> Option<Vector4<T>> {
+        let rhs = u - self.coriolis(q, qd) * qd - self.elastic_force(q) - self.damping_force(qd);
+        Cholesky::new(self.inertia(q)).map(|c| c.solve(&rhs))
+    }
+
+    /// Tip deflection `w(a2) = Σ φ_j(a2) δ_j` [m], normal to the undeformed link 2.
+    pub fn tip_deflection(&self, q: &Vector4<T>) -> T {
+        self.params.modes.tip.dot(&Vector2::new(q.z, q.w))
+    }
+}

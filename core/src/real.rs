@@ -1,0 +1,106 @@
+//! The scalar trait: nalgebra's [`RealField`] plus the few transcendental functions the model
+//! needs, routed through `libm` so the firmware (no_std) and the simulator (std) get the same
+//! results bit for bit.
+
+use nalgebra::RealField;
+
+/// A real scalar (`f32` or `f64`) with `libm` transcendental functions.
+///
+/// The methods carry an `l` prefix (for libm) so they never shadow nalgebra's own methods of the
+/// same name, which on `std` builds go to the platform's math library.
+pub trait Real: RealField + Copy {
+    /// `(sin x, cos x)`.
+    fn lsin_cos(self) -> (Self, Self);
+    /// `eˣ`.
+    fn lexp(self) -> Self;
+    /// `acos x`, NaN outside [-1, 1].
+    fn lacos(self) -> Self;
+    /// `atan2(self, x)`.
+    fn latan2(self, x: Self) -> Self;
+    /// `sinh x`.
+    fn lsinh(self) -> Self;
+    /// `cosh x`.
+    fn lcosh(self) -> Self;
+    /// `√x` (IEEE correctly rounded on every platform).
+    fn lsqrt(self) -> Self;
+    /// Converts an `f64` constant, rounding to nearest.
+    fn c(x: f64) -> Self;
+    /// Converts to `f64` exactly.
+    fn to_f64(self) -> f64;
+    /// `true` unless NaN or ±∞.
+    fn finite(self) -> bool;
+    /// `true` for NaN.
+    fn is_nan_(self) -> bool;
+}
+
+impl Real for f32 {
+    fn lsin_cos(self) -> (Self, Self) {
+        libm::sincosf(self)
+    }
+    fn lexp(self) -> Self {
+        libm::expf(self)
+    }
+    fn lacos(self) -> Self {
+        libm::acosf(self)
+    }
+    fn latan2(self, x: Self) -> Self {
+        libm::atan2f(self, x)
+    }
+    fn lsinh(self) -> Self {
+        libm::sinhf(self)
+    }
+    fn lcosh(self) -> Self {
+        libm::coshf(self)
+    }
+    fn lsqrt(self) -> Self {
+        libm::sqrtf(self)
+    }
+    fn c(x: f64) -> Self {
+        x as f32
+    }
+    fn to_f64(self) -> f64 {
+        f64::from(self)
+    }
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+    fn is_nan_(self) -> bool {
+        self.is_nan()
+    }
+}
+
+impl Real for f64 {
+    fn lsin_cos(self) -> (Self, Self) {
+        libm::sincos(self)
+    }
+    fn lexp(self) -> Self {
+        libm::exp(self)
+    }
+    fn lacos(self) -> Self {
+        libm::acos(self)
+    }
+    fn latan2(self, x: Self) -> Self {
+        libm::atan2(self, x)
+    }
+    fn lsinh(self) -> Self {
+        libm::sinh(self)
+    }
+    fn lcosh(self) -> Self {
+        libm::cosh(self)
+    }
+    fn lsqrt(self) -> Self {
+        libm::sqrt(self)
+    }
+    fn c(x: f64) -> Self {
+        x
+    }
+    fn to_f64(self) -> f64 {
+        self
+    }
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+    fn is_nan_(self) -> bool {
+        self.is_nan()
+    }
+}

@@ -1,0 +1,347 @@
+//! Desired joint trajectories `θ_d(t)`, `θ̇_d(t)`, `θ̈_d(t)` (the joint part of `q_d`; the modal
+//! part `δ_d` is zero: gravity is ignored, so the arm at rest is undeformed).
+//!
+//! Time `t` [s] counts from the start of the trajectory. Angles in rad, positions in m, in the
+//! base frame.
+//!
+//! - [`Trapezoid`]: the paper's joint moves (Fig. 5), a trapezoidal velocity profile. The paper
+//!   gives the amplitude (π/2) only; the default timing is ours: the move takes 2 s with 0.5 s
+//!   of constant acceleration and 0.5 s of constant deceleration, leaving 3 s of rest in the
+//!   5 s run (exactly the window of Eq. 38).
+//! - [`Circle`]: the task-space circle of Eq. 36 through inverse kinematics. The printed circle
+//!   (centre (0.4, 0), radius 0.2) leaves the reachable annulus; [`Circle::paper`] is the nearest
+//!   reachable circle of the same radius, see `docs/model.md`.
+
+use crate::kinematics::{Elbow, Planar2};
+use crate::real::Real;
+use crate::{Vector2, Vector4};
+
+/// Why a trajectory was refused at construction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TrajectoryError {
+    /// A point of the path is outside the reachable annulus (with its margin) [m].
+    Unreachable {
+        /// Distance of the offending point from joint 1 [m].
+        distance: f64,
+        /// Smallest allowed distance [m].
+        min: f64,
+        /// Largest allowed distance [m].
+        max: f64,
+    },
+    /// A timing parameter is non-positive, or the ramps are longer than half the move.
+    InvalidTiming,
+    /// A parameter is NaN or infinite.
+    NotFinite,
+}
+
+impl core::fmt::Display for TrajectoryError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Unreachable { distance, min, max } => write!(
+                f,
+                "target unreachable: it passes {distance:.3} m from joint 1, the arm reaches {min:.3} m to {max:.3} m"
+            ),
+            Self::InvalidTiming => {
+                write!(
+                    f,
+                    "invalid timing: need duration > 0 and 0 < ramp time <= duration/2"
+                )
+            }
+            Self::NotFinite => write!(f, "trajectory parameter is NaN or infinite"),
+        }
+    }
+}
+
+/// One sample of the desired joint motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointTarget<T> {
+    /// `θ_d` [rad].
+    pub q: Vector2<T>,
+    /// `θ̇_d` [rad/s].
+    pub qd: Vector2<T>,
+    /// `θ̈_d` [rad/s²].
+    pub qdd: Vector2<T>,
+}
+
+impl<T: Real> JointTarget<T> {
+    /// At rest at `q` [rad].
+    pub fn rest(q: Vector2<T>) -> Self {
+        Self {
+            q,
+            qd: Vector2::zeros(),
+            qdd: Vector2::zeros(),
+        }
+    }
+
+    /// The full desired state `(q_d, q̇_d, q̈_d)` with `δ_d = 0`.
+    pub fn generalized(&self) -> (Vector4<T>, Vector4<T>, Vector4<T>) {
+        let z = T::zero();
+        (
+            Vector4::new(self.q.x, self.q.y, z, z),
+            Vector4::new(self.qd.x, self.qd.y, z, z),
+            Vector4::new(self.qdd.x, self.qdd.y, z, z),
+        )
+    }
+}
+
+/// Normalized trapezoidal-velocity profile `s(t)` from 0 to 1 over `duration` [s] with
+/// constant acceleration for `ramp` [s] at each end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Profile<T> {
+    duration: T,
+    ramp: T,
+    /// Cruise rate `1/(T − t_a)` [1/s].
+    rate: T,
+    /// Acceleration `rate/t_a` [1/s²].
+    accel: T,
+}
+
+impl<T: Real> Profile<T> {
+    /// A profile over `duration` [s] with ramps of `ramp` [s], `0 < ramp ≤ duration/2`.
+    pub fn new(duration: T, ramp: T) -> Result<Self, TrajectoryError> {
+        if !duration.finite() || !ramp.finite() {
+            return Err(TrajectoryError::NotFinite);
+        }
+        if duration <= T::zero() || ramp <= T::zero() || ramp * T::c(2.0) > duration {
+            return Err(TrajectoryError::InvalidTiming);
+        }
+        let rate = T::one() / (duration - ramp);
+        Ok(Self {
+            duration,
+            ramp,
+            rate,
+            accel: rate / ramp,
+        })
+    }
+
+    /// Total duration [s].
+    pub fn duration(&self) -> T {
+        self.duration
+    }
+
+    /// `(s, ṡ, s̈)` at time `t` [s]; 0 before the start, 1 after the end.
+    pub fn sample(&self, t: T) -> (T, T, T) {
+        let half = T::c(0.5);
+        let z = T::zero();
+        if t.is_nan_() || t <= z {
+            (z, z, z)
+        } else if t < self.ramp {
+            (half * self.accel * t * t, self.accel * t, self.accel)
+        } else if t < self.duration - self.ramp {
+            (
+                half * self.accel * self.ramp * self.ramp + self.rate * (t - self.ramp),
+                self.rate,
+                z,
+            )
+        } else if t < self.duration {
+            let r = self.duration - t;
+            (
+                T::one() - half * self.accel * r * r,
+                self.accel * r,
+                -self.accel,
+            )
+        } else {
+            (T::one(), z, z)
+        }
+    }
+}
+
+/// Joint-space move from `start` to `start + amplitude` with a trapezoidal velocity profile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Trapezoid<T> {
+    /// Initial joint angles [rad].
+    pub start: Vector2<T>,
+    /// Joint displacement [rad].
+    pub amplitude: Vector2<T>,
+    /// Time profile.
+    pub profile: Profile<T>,
+}
+
+impl<T: Real> Trapezoid<T> {
+    /// The paper's move (Fig. 5): both joints from 0 to π/2 in 2 s with 0.5 s ramps.
+    pub fn paper() -> Self {
+        let half_pi = T::c(core::f64::consts::FRAC_PI_2);
+        Self {
+            start: Vector2::zeros(),
+            amplitude: Vector2::new(half_pi, half_pi),
+            // Constants that satisfy the constructor's checks; Profile::new cannot fail here.
+            profile: Profile::new(T::c(2.0), T::c(0.5)).unwrap_or(Profile {
+                duration: T::c(2.0),
+                ramp: T::c(0.5),
+                rate: T::c(1.0 / 1.5),
+                accel: T::c(1.0 / 0.75),
+            }),
+        }
+    }
+
+    /// Desired motion at `t` [s].
+    pub fn sample(&self, t: T) -> JointTarget<T> {
+        let (s, sd, sdd) = self.profile.sample(t);
+        JointTarget {
+            q: self.start + self.amplitude * s,
+            qd: self.amplitude * sd,
+            qdd: self.amplitude * sdd,
+        }
+    }
+}
+
+/// A circle of the tip in the base frame, run once with a trapezoidal profile of its phase,
+/// through the rigid arm's inverse kinematics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Circle<T> {
+    kin: Planar2<T>,
+    elbow: Elbow,
+    /// Centre [m].
+    pub centre: Vector2<T>,
+    /// Radius [m].
+    pub radius: T,
+    /// Phase at the start [rad], measured counter-clockwise from +x about the centre.
+    pub start_phase: T,
+    /// `−1` clockwise, `+1` counter-clockwise.
+    direction: T,
+    /// Time profile of one revolution.
+    pub profile: Profile<T>,
+    /// Joint angles at the start point [rad].
+    pub start: Vector2<T>,
+}
+
+impl<T: Real> Circle<T> {
+    /// A circle of the given centre and radius [m], run once from `start_phase` [rad] in the
+    /// given direction with the given profile. Every point must lie at least `margin` [m]
+    /// inside the reachable annulus, away from the singular stretched and folded arm.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        kin: Planar2<T>,
+        centre: Vector2<T>,
+        radius: T,
+        start_phase: T,
+        clockwise: bool,
+        profile: Profile<T>,
+        elbow: Elbow,
+        margin: T,
+    ) -> Result<Self, TrajectoryError> {
+        let c = centre.norm();
+        if !c.finite() || !radius.finite() || !start_phase.finite() || !margin.finite() {
+            return Err(TrajectoryError::NotFinite);
+        }
+        if radius <= T::zero() {
+            return Err(TrajectoryError::InvalidTiming);
+        }
+        let (lo, hi) = kin.annulus();
+        let (near, far) = ((c - radius).abs(), c + radius);
+        // The closest point lies at |c − r| (on the ray through the centre); if the circle
+        // surrounds the base the closest distance is r − c.
+        for d in [near, far] {
+            if d < lo + margin || d > hi - margin {
+                return Err(TrajectoryError::Unreachable {
+                    distance: d.to_f64(),
+                    min: (lo + margin).to_f64(),
+                    max: (hi - margin).to_f64(),
+                });
+            }
+        }
+        let direction = if clockwise { -T::one() } else { T::one() };
+        let (s, c) = start_phase.lsin_cos();
+        let start = kin.inverse(&(centre + Vector2::new(c, s) * radius), elbow, margin)?;
+        Ok(Self {
+            kin,
+            elbow,
+            centre,
+            radius,
+            start_phase,
+            direction,
+            profile,
+            start,
+        })
+    }
+
+    /// Eq. 36 made reachable: radius 0.2 m (diameter 0.4 m as printed), run clockwise from the
+    /// top point as the text says, one revolution in 4 s with 0.5 s ramps, centre moved from
+    /// the printed (0.4, 0) m to (0.65, 0) m: the nearest centre on the same axis that keeps
+    /// the whole circle 0.05 m inside the annulus 0.4 m ≤ ‖p‖ ≤ 1.0 m of the paper's arm.
+    pub fn paper(a1: T, a2: T) -> Result<Self, TrajectoryError> {
+        Self::new(
+            Planar2 { a1, a2 },
+            Vector2::new(T::c(0.65), T::zero()),
+            T::c(0.2),
+            T::c(core::f64::consts::FRAC_PI_2),
+            true,
+            Profile::new(T::c(4.0), T::c(0.5))?,
+            Elbow::Positive,
+            T::c(0.05),
+        )
+    }
+
+    /// The circle exactly as Eq. 36 prints it: centre (0.4, 0) m, radius 0.2 m. Unreachable
+    /// for the paper's arm; kept so the error can be shown.
+    pub fn as_printed(a1: T, a2: T) -> Result<Self, TrajectoryError> {
+        Self::new(
+            Planar2 { a1, a2 },
+            Vector2::new(T::c(0.4), T::zero()),
+            T::c(0.2),
+            T::c(core::f64::consts::FRAC_PI_2),
+            true,
+            Profile::new(T::c(4.0), T::c(0.5))?,
+            Elbow::Positive,
+            T::zero(),
+        )
+    }
+
+    /// Tip position, velocity and acceleration [m, m/s, m/s²] at `t` [s].
+    pub fn tip(&self, t: T) -> (Vector2<T>, Vector2<T>, Vector2<T>) {
+        let (s, sd, sdd) = self.profile.sample(t);
+        let two_pi = T::c(core::f64::consts::TAU) * self.direction;
+        let psi = self.start_phase + two_pi * s;
+        let (psi_d, psi_dd) = (two_pi * sd, two_pi * sdd);
+        let (sn, cs) = psi.lsin_cos();
+        let radial = Vector2::new(cs, sn);
+        let tangent = Vector2::new(-sn, cs);
+        let r = self.radius;
+        (
+            self.centre + radial * r,
+            tangent * (r * psi_d),
+            tangent * (r * psi_dd) - radial * (r * psi_d * psi_d),
+        )
+    }
+
+    /// Desired joint motion at `t` [s].
+    pub fn sample(&self, t: T) -> JointTarget<T> {
+        let (p, v, a) = self.tip(t);
+        // Reachability with margin was proven at construction: the negative margin here only
+        // disables the check against rounding at the boundary (`inverse` clamps cos θ2).
+        let no_check = -(self.kin.a1 + self.kin.a2);
+        let q = match self.kin.inverse(&p, self.elbow, no_check) {
+            Ok(q) => q,
+            Err(_) => return JointTarget::rest(self.start),
+        };
+        let j = self.kin.jacobian(&q);
+        let Some(j_inv) = j.try_inverse() else {
+            return JointTarget::rest(q);
+        };
+        let qd = j_inv * v;
+        let qdd = j_inv * (a - self.kin.jacobian_dot_times(&q, &qd));
+        JointTarget { q, qd, qdd }
+    }
+}
+
+/// A joint trajectory the controllers can follow (an enum, so the firmware needs no `dyn`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum JointTrajectory<T> {
+    /// Hold still at the given angles [rad].
+    Hold(Vector2<T>),
+    /// A trapezoidal joint move.
+    Trapezoid(Trapezoid<T>),
+    /// A task-space circle.
+    Circle(Circle<T>),
+}
+
+impl<T: Real> JointTrajectory<T> {
+    /// Desired joint motion at `t` [s] since the start.
+    pub fn sample(&self, t: T) -> JointTarget<T> {
+        match self {
+            Self::Hold(q) => JointTarget::rest(*q),
+            Self::Trapezoid(tr) => tr.sample(t),
+            Self::Circle(c) => c.sample(t),
+        }
+    }
+}
