@@ -256,14 +256,13 @@ impl<T: Real> Default for Gains<T> {
 }
 
 impl<T: Real> Gains<T> {
-    /// Checks signs: `Λ > 0`, `K_p ≥ 0` with positive joint rows, `D_Δ ≥ 0`, `ε > 0`, `φ ≥ 0`.
+    /// Checks signs: `Λ > 0`, `K_p ≥ 0` (zero joint rows are allowed to reproduce the paper's
+    /// printed gains, but leave the joints without proportional feedback), `D_Δ ≥ 0`, `ε > 0`, `φ ≥ 0`.
     pub fn validate(&self) -> Result<(), ParamError> {
         for i in 0..4 {
             positive("lambda", self.lambda.get(i).copied().unwrap_or(T::zero()))?;
             non_negative("kp", self.kp.get(i).copied().unwrap_or(T::zero()))?;
         }
-        positive("kp[0]", self.kp.x)?;
-        positive("kp[1]", self.kp.y)?;
         for i in 0..2 {
             let g = |v: &Vector2<T>| v.get(i).copied().unwrap_or(T::zero());
             non_negative("d_delta", g(&self.d_delta))?;

@@ -206,10 +206,12 @@ pub struct PiezoGains<T> {
 }
 
 impl<T: Real> Default for PiezoGains<T> {
-    /// `k_c = 2 s`, corner 100 Hz (7 times the second mode; `docs/model.md`).
+    /// `k_c = 30 s` (the paper's `K_c = 30`, here with units that make it damp the second mode
+    /// within the ±200 V amplifier range), corner 100 Hz (7 times the second mode);
+    /// `docs/model.md` gives the evidence.
     fn default() -> Self {
         Self {
-            k_c: T::c(2.0),
+            k_c: T::c(30.0),
             cutoff_hz: T::c(100.0),
         }
     }
