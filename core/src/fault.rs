@@ -12,6 +12,10 @@ pub enum Fault {
     OutOfRange,
     /// No new sample arrived in time.
     Stale,
+    /// An encoder moved farther in one sample than the arm can.
+    EncoderJump,
+    /// The previous run ended in a watchdog reset.
+    Watchdog,
     /// A control task overran its period.
     Overrun,
     /// An amplifier reported a fault.
@@ -29,6 +33,8 @@ impl Fault {
             Self::NonFinite => "non-finite measurement",
             Self::OutOfRange => "measurement out of range",
             Self::Stale => "stale measurement",
+            Self::EncoderJump => "encoder jump",
+            Self::Watchdog => "watchdog reset",
             Self::Overrun => "control task overrun",
             Self::Amplifier => "amplifier fault",
             Self::InvalidConfig => "invalid configuration",

@@ -23,14 +23,18 @@
 #![no_std]
 
 pub mod control;
+pub mod controller;
 pub mod fault;
 pub mod indices;
 pub mod kinematics;
 pub mod limits;
 pub mod model;
 pub mod modes;
+pub mod observer;
+pub mod observer_gains;
 pub mod params;
 pub mod real;
+pub mod supervisor;
 pub mod trajectory;
 
 pub use fault::Fault;

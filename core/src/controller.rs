@@ -1,0 +1,205 @@
+//! The complete controller the firmware runs: checks, observer, motor law, piezo law, latch.
+//!
+//! Two entry points, one per loop, as on the block diagram:
+//!
+//! - [`Controller::motor_step`] (motor loop): plausibility of the encoder/film sample,
+//!   observer correction, trajectory sample, Eq. 7 or Eq. 16 on the estimated state, saturation,
+//!   observer prediction with the torques and piezo force just applied;
+//! - [`Controller::piezo_step`] (piezo loop): `V_a = sat(−k_c V̇_f)` (Eq. 17) with the film
+//!   voltage checked.
+//!
+//! Every output passes the [`SafetyLatch`]: after any fault both loops command the safe state
+//! (zero torque, zero voltage, amplifiers disabled) until [`Controller::reset`].
+
+use crate::control::motor::{MotorController, MotorOutput};
+use crate::control::piezo::{PiezoLaw, PiezoPatch};
+use crate::fault::Fault;
+use crate::observer::{Measurement, Observer};
+use crate::real::Real;
+use crate::supervisor::{Command, SafetyLatch, SensorLimits, Staleness};
+use crate::trajectory::JointTrajectory;
+use crate::{Vector2, Vector4};
+
+/// Where the motor law takes its modal state from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StateSource {
+    /// The observer's estimate (a real board).
+    Observer,
+    /// The full measured state passed to [`Controller::motor_step_full_state`] (the paper's
+    /// assumption; simulation only).
+    FullState,
+}
+
+/// What one motor step did, for telemetry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotorReport<T> {
+    /// What goes to the amplifiers.
+    pub command: Command<T>,
+    /// The law's output before gating, when it ran.
+    pub law: Option<MotorOutput<T>>,
+    /// Estimated `(q, q̇)`.
+    pub estimate: (Vector4<T>, Vector4<T>),
+}
+
+/// The controller: laws, observer and fault logic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Controller<T> {
+    /// Motor law.
+    pub motor: MotorController<T>,
+    /// Piezo law.
+    pub piezo: PiezoLaw<T>,
+    /// The patch, for the piezo's modal force in the observer's prediction.
+    pub patch: PiezoPatch<T>,
+    /// State observer.
+    pub observer: Observer<T>,
+    /// Physical ranges of the measurements.
+    pub sensors: SensorLimits<T>,
+    /// Desired motion.
+    pub trajectory: JointTrajectory<T>,
+    /// Motor-loop period [s].
+    pub motor_period: T,
+    latch: SafetyLatch,
+    staleness: Staleness,
+    previous: Option<Measurement<T>>,
+    v_a: T,
+}
+
+impl<T: Real> Controller<T> {
+    /// Assembles a controller; `stale_limit` is the number of motor periods tolerated without a
+    /// new sample. Parameters that fail validation latch [`Fault::InvalidConfig`] at once.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        motor: MotorController<T>,
+        piezo: PiezoLaw<T>,
+        patch: PiezoPatch<T>,
+        observer: Observer<T>,
+        sensors: SensorLimits<T>,
+        trajectory: JointTrajectory<T>,
+        motor_period: T,
+        stale_limit: u32,
+    ) -> Self {
+        let mut latch = SafetyLatch::default();
+        let valid = motor.model.params.validate().is_ok()
+            && motor.gains.validate().is_ok()
+            && motor.limits.validate().is_ok()
+            && motor_period.finite()
+            && motor_period > T::zero();
+        if !valid {
+            latch.trip(Fault::InvalidConfig);
+        }
+        Self {
+            motor,
+            piezo,
+            patch,
+            observer,
+            sensors,
+            trajectory,
+            motor_period,
+            latch,
+            staleness: Staleness::new(stale_limit),
+            previous: None,
+            v_a: T::zero(),
+        }
+    }
+
+    /// The latched fault, if any.
+    pub fn fault(&self) -> Option<Fault> {
+        self.latch.fault()
+    }
+
+    /// Latches `fault` from outside (overrun, amplifier fault input, watchdog, bad
+    /// configuration). Returns `true` if it is the first.
+    pub fn trip(&mut self, fault: Fault) -> bool {
+        self.v_a = T::zero();
+        self.latch.trip(fault)
+    }
+
+    /// Clears the latch and restarts the filters and the observer at the encoder angles
+    /// `theta` [rad].
+    pub fn reset(&mut self, theta: Vector2<T>) {
+        self.latch.reset();
+        self.piezo.reset();
+        self.observer.reset(theta);
+        self.previous = None;
+        self.v_a = T::zero();
+    }
+
+    /// One motor step at `t` [s] since the trajectory started. `y` is `None` when no new
+    /// sample arrived this period.
+    pub fn motor_step(&mut self, t: T, y: Option<&Measurement<T>>) -> MotorReport<T> {
+        let law = self.run_motor(t, y, None);
+        self.report(law)
+    }
+
+    /// One motor step with the full state `(q, q̇)` measured (the paper's assumption), for
+    /// comparing with the observer in simulation. The checks and the latch still apply.
+    pub fn motor_step_full_state(
+        &mut self,
+        t: T,
+        y: &Measurement<T>,
+        q: &Vector4<T>,
+        qd: &Vector4<T>,
+    ) -> MotorReport<T> {
+        let law = self.run_motor(t, Some(y), Some((q, qd)));
+        self.report(law)
+    }
+
+    fn report(&self, law: Option<MotorOutput<T>>) -> MotorReport<T> {
+        let tau = law.map_or(Vector2::zeros(), |l| l.tau);
+        MotorReport {
+            command: self.latch.gate(tau, self.v_a),
+            law,
+            estimate: self.observer.state(),
+        }
+    }
+
+    fn run_motor(
+        &mut self,
+        t: T,
+        y: Option<&Measurement<T>>,
+        full: Option<(&Vector4<T>, &Vector4<T>)>,
+    ) -> Option<MotorOutput<T>> {
+        if self.latch.fault().is_some() {
+            return None;
+        }
+        let stale = self.staleness.tick(y.is_some());
+        self.latch.check(stale)?;
+        if let Some(y) = y {
+            let checked = self
+                .sensors
+                .check(y, self.previous.as_ref(), self.motor_period);
+            self.latch.check(checked)?;
+            self.latch.check(self.observer.correct(y))?;
+            self.previous = Some(*y);
+        }
+        let (q, qd) = match full {
+            Some((q, qd)) => (*q, *qd),
+            None => self.observer.state(),
+        };
+        let target = self.trajectory.sample(t);
+        let out = self.latch.check(self.motor.step(t, &q, &qd, &target))?;
+        let u = Vector4::new(out.tau.x, out.tau.y, T::zero(), T::zero())
+            + self.patch.generalized_force(self.v_a);
+        self.latch
+            .check(self.observer.predict(&self.motor.model, &u))?;
+        Some(out)
+    }
+
+    /// One piezo step with the film voltage `v_f` [V]; returns the amplifier command [V]
+    /// (0 V in the safe state).
+    pub fn piezo_step(&mut self, v_f: T) -> T {
+        if self.latch.fault().is_some() {
+            return T::zero();
+        }
+        if !v_f.finite() {
+            self.trip(Fault::NonFinite);
+            return T::zero();
+        }
+        if v_f.abs() > self.sensors.v_f_max {
+            self.trip(Fault::OutOfRange);
+            return T::zero();
+        }
+        self.v_a = self.piezo.step(v_f);
+        self.v_a
+    }
+}

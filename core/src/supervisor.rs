@@ -1,0 +1,170 @@
+//! Plausibility checks of the measurements and the latch that holds the safe state.
+//!
+//! Every check that fails trips the [`SafetyLatch`]; from then on [`SafetyLatch::gate`] returns
+//! [`Command::safe`] (zero torque, zero piezo voltage, amplifiers disabled) whatever the laws
+//! compute, until an explicit [`SafetyLatch::reset`]. The first fault is kept: later ones do not
+//! overwrite the cause.
+
+use crate::Vector2;
+use crate::fault::Fault;
+use crate::observer::Measurement;
+use crate::real::Real;
+
+/// What goes to the amplifiers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Command<T> {
+    /// Motor torques [N·m].
+    pub tau: Vector2<T>,
+    /// Piezo amplifier voltage [V].
+    pub v_a: T,
+    /// Amplifier enable.
+    pub enable: bool,
+}
+
+impl<T: Real> Command<T> {
+    /// The safe state: zero torque, zero voltage, amplifiers disabled.
+    pub fn safe() -> Self {
+        Self {
+            tau: Vector2::zeros(),
+            v_a: T::zero(),
+            enable: false,
+        }
+    }
+}
+
+/// Physical ranges of the measurements.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorLimits<T> {
+    /// Smallest joint angles [rad].
+    pub theta_min: Vector2<T>,
+    /// Largest joint angles [rad].
+    pub theta_max: Vector2<T>,
+    /// Largest joint speed the arm can reach [rad/s]; an encoder moving farther than
+    /// `speed_max × period` in one motor period has jumped.
+    pub speed_max: T,
+    /// Largest film voltage magnitude [V] (the ADC's input range).
+    pub v_f_max: T,
+}
+
+impl<T: Real> Default for SensorLimits<T> {
+    /// θ1 ∈ [−π, π], θ2 ∈ [−2.8, 2.8] rad (short of the folded arm's self-collision),
+    /// 20 rad/s, film ±10 V.
+    fn default() -> Self {
+        let pi = T::c(core::f64::consts::PI);
+        Self {
+            theta_min: Vector2::new(-pi, T::c(-2.8)),
+            theta_max: Vector2::new(pi, T::c(2.8)),
+            speed_max: T::c(20.0),
+            v_f_max: T::c(10.0),
+        }
+    }
+}
+
+impl<T: Real> SensorLimits<T> {
+    /// Checks one sample against the ranges and, given the previous sample taken `period` [s]
+    /// earlier, against encoder jumps.
+    pub fn check(
+        &self,
+        y: &Measurement<T>,
+        previous: Option<&Measurement<T>>,
+        period: T,
+    ) -> Result<(), Fault> {
+        if !(y.theta.x.finite() && y.theta.y.finite() && y.v_f.finite()) {
+            return Err(Fault::NonFinite);
+        }
+        let inside = |x: T, lo: T, hi: T| x >= lo && x <= hi;
+        if !inside(y.theta.x, self.theta_min.x, self.theta_max.x)
+            || !inside(y.theta.y, self.theta_min.y, self.theta_max.y)
+            || y.v_f.abs() > self.v_f_max
+        {
+            return Err(Fault::OutOfRange);
+        }
+        if let Some(p) = previous {
+            let step = self.speed_max * period;
+            if (y.theta.x - p.theta.x).abs() > step || (y.theta.y - p.theta.y).abs() > step {
+                return Err(Fault::EncoderJump);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The fault latch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct SafetyLatch {
+    fault: Option<Fault>,
+}
+
+impl SafetyLatch {
+    /// Records `fault` unless one is already latched. Returns `true` if this call tripped it.
+    pub fn trip(&mut self, fault: Fault) -> bool {
+        if self.fault.is_none() {
+            self.fault = Some(fault);
+            true
+        } else {
+            false
+        }
+    }
+
+    /// The latched fault, if any.
+    pub fn fault(&self) -> Option<Fault> {
+        self.fault
+    }
+
+    /// Clears the latch (an explicit operator action).
+    pub fn reset(&mut self) {
+        self.fault = None;
+    }
+
+    /// Passes `cmd` (enabled) while no fault is latched; [`Command::safe`] otherwise.
+    pub fn gate<T: Real>(&self, tau: Vector2<T>, v_a: T) -> Command<T> {
+        if self.fault.is_some() {
+            Command::safe()
+        } else {
+            Command {
+                tau,
+                v_a,
+                enable: true,
+            }
+        }
+    }
+
+    /// Trips on `Err` and returns the value on `Ok`.
+    pub fn check<V>(&mut self, r: Result<V, Fault>) -> Option<V> {
+        match r {
+            Ok(v) => Some(v),
+            Err(f) => {
+                self.trip(f);
+                None
+            }
+        }
+    }
+}
+
+/// Counts motor periods without a fresh sample; trips [`Fault::Stale`] past a limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Staleness {
+    missed: u32,
+    limit: u32,
+}
+
+impl Staleness {
+    /// Allows `limit` consecutive periods without a new sample.
+    pub fn new(limit: u32) -> Self {
+        Self { missed: 0, limit }
+    }
+
+    /// Call once per period with whether a new sample arrived.
+    pub fn tick(&mut self, fresh: bool) -> Result<(), Fault> {
+        self.missed = if fresh {
+            0
+        } else {
+            self.missed.saturating_add(1)
+        };
+        if self.missed > self.limit {
+            Err(Fault::Stale)
+        } else {
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,200 @@
+//! Fault injection on the host: every fault drives the outputs to the safe state within the
+//! same control period, latches until an explicit reset, and keeps its first cause.
+
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)] // tests may index and unwrap
+
+use flexarm_core::control::motor::{MotorController, MotorLaw};
+use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+use flexarm_core::controller::Controller;
+use flexarm_core::model::Model;
+use flexarm_core::observer::{Measurement, Observer, film_map};
+use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
+use flexarm_core::params::{ArmParams, Gains, Limits};
+use flexarm_core::supervisor::{Command, SensorLimits};
+use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
+use flexarm_core::{Fault, Vector2};
+use proptest::prelude::*;
+
+fn controller_with(arm: ArmParams<f32>) -> Controller<f32> {
+    let limits = Limits::default();
+    let patch = PiezoPatch::<f32>::paper();
+    Controller::new(
+        MotorController {
+            model: Model::new(arm),
+            gains: Gains::default(),
+            limits,
+            law: MotorLaw::Robust,
+        },
+        PiezoLaw::new(&PiezoGains::default(), 1e-4, limits.v_a_max),
+        patch,
+        Observer::new(gain(&GAIN_1KHZ), film_map(&patch), 1e-3, Vector2::zeros()),
+        SensorLimits::default(),
+        JointTrajectory::Trapezoid(Trapezoid::paper()),
+        1e-3,
+        3,
+    )
+}
+
+fn controller() -> Controller<f32> {
+    controller_with(ArmParams::default())
+}
+
+fn y(th1: f32, th2: f32, v_f: f32) -> Measurement<f32> {
+    Measurement {
+        theta: Vector2::new(th1, th2),
+        v_f,
+    }
+}
+
+/// Runs 50 healthy steps, then the faulty one; checks the safe state at once and after.
+fn inject(fault_step: impl FnOnce(&mut Controller<f32>) -> Command<f32>, expect: Fault) {
+    let mut c = controller();
+    for k in 0..50 {
+        let r = c.motor_step(k as f32 * 1e-3, Some(&y(0.0, 0.0, 0.0)));
+        assert!(r.command.enable, "healthy step {k} must run");
+        c.piezo_step(0.0);
+    }
+    let cmd = fault_step(&mut c);
+    assert_eq!(
+        cmd,
+        Command::safe(),
+        "safe within the faulty period for {expect:?}"
+    );
+    assert_eq!(c.fault(), Some(expect));
+    // Latched: healthy samples do not clear it, and the first cause stays.
+    for k in 0..10 {
+        let r = c.motor_step(0.06 + k as f32 * 1e-3, Some(&y(0.0, 0.0, 0.0)));
+        assert_eq!(r.command, Command::safe());
+        assert_eq!(c.piezo_step(1.0), 0.0);
+    }
+    c.trip(Fault::Amplifier);
+    assert_eq!(c.fault(), Some(expect), "first cause kept");
+    // An explicit reset brings it back.
+    c.reset(Vector2::zeros());
+    assert!(c.motor_step(0.1, Some(&y(0.0, 0.0, 0.0))).command.enable);
+}
+
+#[test]
+fn nan_encoder() {
+    inject(
+        |c| c.motor_step(0.05, Some(&y(f32::NAN, 0.0, 0.0))).command,
+        Fault::NonFinite,
+    );
+}
+
+#[test]
+fn infinite_film_voltage_in_the_motor_loop() {
+    inject(
+        |c| {
+            c.motor_step(0.05, Some(&y(0.0, 0.0, f32::INFINITY)))
+                .command
+        },
+        Fault::NonFinite,
+    );
+}
+
+#[test]
+fn nan_film_voltage_in_the_piezo_loop() {
+    inject(
+        |c| {
+            assert_eq!(c.piezo_step(f32::NAN), 0.0);
+            c.motor_step(0.05, Some(&y(0.0, 0.0, 0.0))).command
+        },
+        Fault::NonFinite,
+    );
+}
+
+#[test]
+fn angle_out_of_range() {
+    inject(
+        |c| c.motor_step(0.05, Some(&y(0.0, 3.0, 0.0))).command,
+        Fault::OutOfRange,
+    );
+}
+
+#[test]
+fn film_voltage_out_of_range() {
+    inject(
+        |c| c.motor_step(0.05, Some(&y(0.0, 0.0, 11.0))).command,
+        Fault::OutOfRange,
+    );
+}
+
+#[test]
+fn encoder_jump() {
+    // 20 rad/s × 1 ms = 0.02 rad per period at most.
+    inject(
+        |c| c.motor_step(0.05, Some(&y(0.05, 0.0, 0.0))).command,
+        Fault::EncoderJump,
+    );
+}
+
+#[test]
+fn stale_samples() {
+    inject(
+        |c| {
+            for k in 0..3 {
+                assert!(
+                    c.motor_step(0.05 + k as f32 * 1e-3, None).command.enable,
+                    "3 missed samples are tolerated"
+                );
+            }
+            c.motor_step(0.053, None).command
+        },
+        Fault::Stale,
+    );
+}
+
+#[test]
+fn overrun_amplifier_and_watchdog_from_outside() {
+    for f in [Fault::Overrun, Fault::Amplifier, Fault::Watchdog] {
+        inject(
+            |c| {
+                c.trip(f);
+                c.motor_step(0.05, Some(&y(0.0, 0.0, 0.0))).command
+            },
+            f,
+        );
+    }
+}
+
+#[test]
+fn invalid_configuration_starts_in_the_safe_state() {
+    let arm = ArmParams::<f32> {
+        m2: -1.0,
+        ..Default::default()
+    };
+    let mut c = controller_with(arm);
+    assert_eq!(c.fault(), Some(Fault::InvalidConfig));
+    assert_eq!(
+        c.motor_step(0.0, Some(&y(0.0, 0.0, 0.0))).command,
+        Command::safe()
+    );
+    assert_eq!(c.piezo_step(1.0), 0.0);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(10_000))]
+    /// Whatever the inputs (any bit pattern, NaN and ±∞ included), the steps never panic and
+    /// their outputs are finite and inside the limits.
+    #[test]
+    fn outputs_are_always_finite_and_bounded(
+        steps in proptest::collection::vec((any::<u32>(), any::<u32>(), any::<u32>(), any::<u32>(), any::<bool>()), 1..8),
+        t0 in any::<u32>(),
+    ) {
+        let mut c = controller();
+        let lim = c.motor.limits;
+        for (k, (a, b, v, t, fresh)) in steps.into_iter().enumerate() {
+            let f = |bits: u32, plausible: bool| if plausible { (bits as f32 / u32::MAX as f32 - 0.5) * 0.01 } else { f32::from_bits(bits) };
+            // Half of the samples are plausible (so the laws run), half arbitrary bits.
+            let plausible = t % 2 == 0;
+            let m = y(f(a, plausible), f(b, plausible), f(v, plausible));
+            let time = if plausible { k as f32 * 1e-3 } else { f32::from_bits(t0 ^ t) };
+            let r = c.motor_step(time, if fresh { Some(&m) } else { None });
+            prop_assert!(r.command.tau.iter().zip(lim.tau_max.iter()).all(|(x, l)| x.is_finite() && x.abs() <= *l));
+            prop_assert!(r.command.v_a.is_finite() && r.command.v_a.abs() <= lim.v_a_max);
+            let v_a = c.piezo_step(f(v ^ t, plausible));
+            prop_assert!(v_a.is_finite() && v_a.abs() <= lim.v_a_max);
+        }
+    }
+}
