@@ -65,6 +65,11 @@ impl<T: Real> Model<T> {
     /// Inertia matrix `B(q)` [kg·m² on the joints, mixed units elsewhere].
     pub fn inertia(&self, q: &Vector4<T>) -> Matrix4<T> {
         let (s2, c2) = q.y.lsin_cos();
+        self.inertia_sc(s2, c2, q)
+    }
+
+    /// [`Self::inertia`] with `(sin θ2, cos θ2)` already computed.
+    pub fn inertia_sc(&self, s2: T, c2: T, q: &Vector4<T>) -> Matrix4<T> {
         let delta = Vector2::new(q.z, q.w);
         let jd = self.j_const + delta.dot(&delta);
         let h = self.a1_s2 * c2 - s2 * self.a1_v.dot(&delta);
@@ -154,6 +159,76 @@ impl<T: Real> Model<T> {
         (b_dot + y - y.transpose()) * T::c(0.5)
     }
 
+    /// `C(q, q̇) v` without forming `C`: the same Christoffel product, `½(Ḃv + Yv − Yᵀv)`,
+    /// using the sparsity of `∂B/∂q` (only `θ2` and `δ` enter `B`; `∂B/∂δ_j` is zero outside the
+    /// joint block). This is what the control laws and the forward dynamics call.
+    pub fn coriolis_times(&self, q: &Vector4<T>, qd: &Vector4<T>, v: &Vector4<T>) -> Vector4<T> {
+        let (s2, c2) = q.y.lsin_cos();
+        self.coriolis_times_sc(s2, c2, q, qd, v)
+    }
+
+    /// [`Self::coriolis_times`] with `(sin θ2, cos θ2)` already computed.
+    pub fn coriolis_times_sc(
+        &self,
+        s2: T,
+        c2: T,
+        q: &Vector4<T>,
+        qd: &Vector4<T>,
+        v: &Vector4<T>,
+    ) -> Vector4<T> {
+        let two = T::c(2.0);
+        let (d1, d2) = (q.z, q.w);
+        let (w0, w1, w2, w3) = (qd.x, qd.y, qd.z, qd.w);
+        let (v0, v1, v2, v3) = (v.x, v.y, v.z, v.w);
+        // ∂B/∂θ2: p00 = 2dh, p01 = dh, p02 = d13, p03 = d14 (symmetric, zero elsewhere).
+        let dh = -self.a1_s2 * s2 - c2 * (self.a1_v.x * d1 + self.a1_v.y * d2);
+        let d13 = -self.a1_v.x * s2;
+        let d14 = -self.a1_v.y * s2;
+        // ∂B/∂δj on the joint block: [[2δj + 2e_j, 2δj + e_j], [2δj + e_j, 2δj]], e_j = −a1 v_j s2.
+        let q_blk = |dj: T, a1vj: T, x0: T, x1: T| {
+            let e = -s2 * a1vj;
+            let (m00, m01, m11) = (two * (dj + e), two * dj + e, two * dj);
+            (m00 * x0 + m01 * x1, m01 * x0 + m11 * x1)
+        };
+        let p_times = |x: &Vector4<T>| {
+            Vector4::new(
+                two * dh * x.x + dh * x.y + d13 * x.z + d14 * x.w,
+                dh * x.x,
+                d13 * x.x,
+                d14 * x.x,
+            )
+        };
+        // Ḃv = θ̇2 ∂B/∂θ2 v + Σ δ̇j ∂B/∂δj v.
+        let pv = p_times(v);
+        let q1v = q_blk(d1, self.a1_v.x, v0, v1);
+        let q2v = q_blk(d2, self.a1_v.y, v0, v1);
+        let b_dot_v = pv * w1
+            + Vector4::new(
+                q1v.0 * w2 + q2v.0 * w3,
+                q1v.1 * w2 + q2v.1 * w3,
+                T::zero(),
+                T::zero(),
+            );
+        // Y's columns: 0, ∂B/∂θ2 q̇, ∂B/∂δ1 q̇, ∂B/∂δ2 q̇.
+        let pq = p_times(qd);
+        let g1 = q_blk(d1, self.a1_v.x, w0, w1);
+        let g2 = q_blk(d2, self.a1_v.y, w0, w1);
+        let y_v = pq * v1
+            + Vector4::new(
+                g1.0 * v2 + g2.0 * v3,
+                g1.1 * v2 + g2.1 * v3,
+                T::zero(),
+                T::zero(),
+            );
+        let yt_v = Vector4::new(
+            T::zero(),
+            pq.dot(v),
+            g1.0 * v0 + g1.1 * v1,
+            g2.0 * v0 + g2.1 * v1,
+        );
+        (b_dot_v + y_v - yt_v) * T::c(0.5)
+    }
+
     /// Modal stiffness `K = diag(ω1², ω2²)` [1/s²] (the lower block of `K_e`).
     pub fn modal_stiffness(&self) -> Vector2<T> {
         self.k
@@ -192,7 +267,8 @@ impl<T: Real> Model<T> {
         qd: &Vector4<T>,
         u: &Vector4<T>,
     ) -> Option<Vector4<T>> {
-        let rhs = u - self.coriolis(q, qd) * qd - self.elastic_force(q) - self.damping_force(qd);
+        let rhs =
+            u - self.coriolis_times(q, qd, qd) - self.elastic_force(q) - self.damping_force(qd);
         Cholesky::new(self.inertia(q)).map(|c| c.solve(&rhs))
     }
 

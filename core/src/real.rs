@@ -34,8 +34,9 @@ pub trait Real: RealField + Copy {
 }
 
 impl Real for f32 {
+    /// Float-only ([`crate::fastmath::sin_cos`]): no software `f64` on the Cortex-M4F.
     fn lsin_cos(self) -> (Self, Self) {
-        libm::sincosf(self)
+        crate::fastmath::sin_cos(self)
     }
     fn lexp(self) -> Self {
         libm::expf(self)

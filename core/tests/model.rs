@@ -179,6 +179,14 @@ proptest! {
     }
 
     #[test]
+    fn sparse_coriolis_product_equals_the_matrix((q, qd) in state(), v in state()) {
+        let m = model();
+        let full = m.coriolis(&q, &qd) * v.1;
+        let sparse = m.coriolis_times(&q, &qd, &v.1);
+        prop_assert!((full - sparse).abs().max() < 1e-12 * (1.0 + full.abs().max()), "{} vs {}", full, sparse);
+    }
+
+    #[test]
     fn power_balance_holds(
         (q, qd) in state(),
         u in (-5.0..5.0, -5.0..5.0, -1.0..1.0, -1.0..1.0f64),

@@ -59,10 +59,11 @@ impl<T: Real> MotorController<T> {
         if !t.finite() || !finite(q) || !finite(qd) {
             return Err(Fault::NonFinite);
         }
-        let b = self.model.inertia(q);
-        let c = self.model.coriolis(q, qd);
+        let (s2, c2) = q.y.lsin_cos();
+        let b = self.model.inertia_sc(s2, c2, q);
         let r = Reference::new(&self.gains.lambda, q, qd, target);
-        let u = eq7_with(&self.model, &b, &c, &self.gains.kp, &r);
+        let c_qd_r = self.model.coriolis_times_sc(s2, c2, q, qd, &r.qd_r);
+        let u = eq7_with(&self.model, &b, &c_qd_r, &self.gains.kp, &r);
         let mut tau = Vector2::new(u.x, u.y);
         if self.law == MotorLaw::Robust {
             let a = modal_damping_accel(

@@ -48,16 +48,16 @@ impl<T: Real> Reference<T> {
     }
 }
 
-/// Eq. 7: the generalized force over all four coordinates, given `B(q)` and `C(q, q̇)`.
+/// Eq. 7: the generalized force over all four coordinates, given `B(q)` and `C(q, q̇) q̇_r`.
 pub fn eq7_with<T: Real>(
     model: &Model<T>,
     b: &Matrix4<T>,
-    c: &Matrix4<T>,
+    c_qd_r: &Vector4<T>,
     kp: &Vector4<T>,
     r: &Reference<T>,
 ) -> Vector4<T> {
     // K_e q_d = 0: the desired deflections are zero.
-    b * r.qdd_r + c * r.qd_r + model.damping_force(&r.qd_r) - kp.component_mul(&r.s)
+    b * r.qdd_r + c_qd_r + model.damping_force(&r.qd_r) - kp.component_mul(&r.s)
 }
 
 /// Eq. 7 from the state: `u = B q̈_r + C q̇_r + K_e q_d + D q̇_r − K_p s`.
@@ -69,11 +69,8 @@ pub fn eq7<T: Real>(
     target: &JointTarget<T>,
 ) -> Vector4<T> {
     let r = Reference::new(&gains.lambda, q, qd, target);
-    eq7_with(
-        model,
-        &model.inertia(q),
-        &model.coriolis(q, qd),
-        &gains.kp,
-        &r,
-    )
+    let (s2, c2) = q.y.lsin_cos();
+    let b = model.inertia_sc(s2, c2, q);
+    let c_qd_r = model.coriolis_times_sc(s2, c2, q, qd, &r.qd_r);
+    eq7_with(model, &b, &c_qd_r, &gains.kp, &r)
 }
