@@ -13,7 +13,7 @@
 
 /// `(sin x, cos x)` for `f32`, float-only for `|x| ≤ 10⁴`.
 pub fn sin_cos(x: f32) -> (f32, f32) {
-    if !(x.abs() <= 1.0e4) {
+    if x.is_nan() || x.abs() > 1.0e4 {
         // Large or non-finite: libm handles both (NaN in, NaN out).
         return libm::sincosf(x);
     }
@@ -21,7 +21,7 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     // π/2 = P1 + P2 + P3; P1 and P2 carry few significant bits so k·P1, k·P2 are exact.
     const P1: f32 = 1.570_312_5;
     const P2: f32 = 4.837_513e-4;
-    const P3: f32 = 7.549_789_9e-8;
+    const P3: f32 = 7.549_79e-8;
     let k = libm::rintf(x * TWO_OVER_PI);
     let r = ((x - k * P1) - k * P2) - k * P3;
     let r2 = r * r;
