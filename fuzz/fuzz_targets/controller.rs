@@ -2,6 +2,7 @@
 //! must stay finite and inside their limits. `cargo fuzz run -s none controller`.
 #![no_main]
 
+use flexarm_core::Vector2;
 use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
 use flexarm_core::controller::Controller;
@@ -11,14 +12,18 @@ use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::params::{ArmParams, Gains, Limits};
 use flexarm_core::supervisor::SensorLimits;
 use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
-use flexarm_core::Vector2;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let limits = Limits::default();
     let patch = PiezoPatch::<f32>::paper();
     let mut c = Controller::new(
-        MotorController { model: Model::new(ArmParams::default()), gains: Gains::default(), limits, law: MotorLaw::Robust },
+        MotorController {
+            model: Model::new(ArmParams::default()),
+            gains: Gains::default(),
+            limits,
+            law: MotorLaw::Robust,
+        },
         PiezoLaw::new(&PiezoGains::default(), 1e-4, limits.v_a_max),
         patch,
         Observer::new(gain(&GAIN_1KHZ), film_map(&patch), 1e-3, Vector2::zeros()),
@@ -31,13 +36,30 @@ fuzz_target!(|data: &[u8]| {
     // (bit 0: a new sample arrived; bit 1: reset the latch first).
     for (k, chunk) in data.chunks_exact(17).enumerate() {
         let f = |i: usize| f32::from_le_bytes([chunk[i], chunk[i + 1], chunk[i + 2], chunk[i + 3]]);
-        let (t, y) = (f(0), Measurement { theta: Vector2::new(f(4), f(8)), v_f: f(12) });
+        let (t, y) = (
+            f(0),
+            Measurement {
+                theta: Vector2::new(f(4), f(8)),
+                v_f: f(12),
+            },
+        );
         if chunk[16] & 2 != 0 {
             c.reset(Vector2::zeros());
         }
         let r = c.motor_step(t, if chunk[16] & 1 != 0 { Some(&y) } else { None });
-        assert!(r.command.tau.iter().zip(limits.tau_max.iter()).all(|(x, l)| x.is_finite() && x.abs() <= *l), "step {k}");
-        assert_eq!(r.command.enable, c.fault().is_none(), "enabled exactly when no fault is latched");
+        assert!(
+            r.command
+                .tau
+                .iter()
+                .zip(limits.tau_max.iter())
+                .all(|(x, l)| x.is_finite() && x.abs() <= *l),
+            "step {k}"
+        );
+        assert_eq!(
+            r.command.enable,
+            c.fault().is_none(),
+            "enabled exactly when no fault is latched"
+        );
         let v_a = c.piezo_step(y.v_f);
         assert!(v_a.is_finite() && v_a.abs() <= limits.v_a_max);
         if c.fault().is_some() {
