@@ -34,7 +34,9 @@ pub mod modes;
 pub mod observer;
 pub mod observer_gains;
 pub mod params;
+pub mod plant;
 pub mod real;
+pub mod simarm;
 pub mod supervisor;
 pub mod trajectory;
 
