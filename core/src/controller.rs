@@ -124,6 +124,13 @@ impl<T: Real> Controller<T> {
         self.v_a = T::zero();
     }
 
+    /// Restarts the observer at rest at the encoder angles `theta` [rad], undeformed (at
+    /// power-up, before the loops start). The latch is not touched.
+    pub fn reset_observer(&mut self, theta: Vector2<T>) {
+        self.observer.reset(theta);
+        self.previous = None;
+    }
+
     /// One motor step at `t` [s] since the trajectory started. `y` is `None` when no new
     /// sample arrived this period.
     pub fn motor_step(&mut self, t: T, y: Option<&Measurement<T>>) -> MotorReport<T> {

@@ -1,4 +1,468 @@
-//! Placeholder of the RTIC application (filled by the firmware issue). It only proves that the
-//! core links into a `thumbv7em-none-eabihf` image.
+//! # flexarm firmware
+//!
+//! RTIC 2 application for an STM32F405. The tasks follow the block diagram:
+//!
+//! | task | trigger | priority | does |
+//! |---|---|---|---|
+//! | `piezo_loop` | TIM2 (10 kHz; 1 kHz under QEMU) | 3 | film voltage → `V_a = sat(−k_c V̇_f)` → piezo amplifier |
+//! | `motor_loop` | TIM3 (1 kHz; 100 Hz under QEMU) | 2 | encoders + film → observer → Eq. 7/16 → motor amplifiers |
+//! | `supervisor` | TIM4 (10 Hz) | 1 | loop liveness, amplifier fault line, watchdog, enable line, load report |
+//! | `idle` | — | 0 | telemetry: drains the queue to defmt |
+//!
+//! The control math is `flexarm-core`'s [`Controller`]: checks, observer, laws and the safety
+//! latch. The tasks only move numbers between the board and the controller.
 #![no_std]
 #![no_main]
+
+mod board;
+mod clock;
+mod config;
+mod stats;
+mod telemetry;
+
+#[cfg(feature = "qemu")]
+use defmt_semihosting as _;
+#[cfg(feature = "hw")]
+use {defmt_rtt as _, panic_probe as _};
+
+#[cfg(not(any(feature = "qemu", feature = "hw")))]
+compile_error!("select a board: feature `hw` (default) or `qemu` (with --no-default-features)");
+#[cfg(all(feature = "qemu", feature = "hw"))]
+compile_error!(
+    "features `qemu` and `hw` exclude each other: build `qemu` with --no-default-features"
+);
+
+/// Under QEMU a panic is a failed run: log it and exit non-zero.
+#[cfg(feature = "qemu")]
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::bkpt();
+    }
+}
+
+use flexarm_core::controller::Controller;
+
+#[rtic::app(device = stm32f4::stm32f405, peripherals = true)]
+mod app {
+    use core::sync::atomic::{AtomicU32, Ordering::Relaxed};
+
+    use flexarm_core::control::motor::{MotorController, MotorLaw};
+    use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+    use flexarm_core::model::Model;
+    use flexarm_core::observer::{Measurement, Observer, film_map};
+    use flexarm_core::observer_gains::gain;
+    use flexarm_core::params::{ArmParams, Gains, Limits};
+    use flexarm_core::supervisor::SensorLimits;
+    use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
+    use flexarm_core::{Fault, Vector2};
+    use heapless::spsc::{Consumer, Producer};
+    #[cfg(feature = "qemu")]
+    use rtic::Mutex;
+    use stm32f4::stm32f405::{TIM2, TIM3, TIM4};
+
+    use super::Controller;
+    use crate::board::Board;
+    use crate::config::{self, MOTOR_HZ, PIEZO_HZ, SUPERVISOR_HZ, TIMER_CLOCK_HZ};
+    use crate::telemetry::{self, Record};
+    use crate::{clock, stats};
+
+    #[cfg(feature = "hw")]
+    use crate::board::hw::HwBoard as BoardImpl;
+    #[cfg(feature = "qemu")]
+    use crate::board::sim::SimBoard as BoardImpl;
+
+    /// Motor steps done, for the supervisor's liveness check.
+    static MOTOR_HEARTBEAT: AtomicU32 = AtomicU32::new(0);
+
+    /// What the QEMU run checks at its end.
+    #[derive(Default)]
+    #[cfg_attr(not(feature = "qemu"), allow(dead_code))]
+    pub struct RunCheck {
+        max_error: f32,
+        tail_error_sum: f32,
+        tail_samples: u32,
+        max_tip: f32,
+        final_tip: f32,
+        finished: bool,
+    }
+
+    #[shared]
+    struct Shared {
+        ctrl: Controller<f32>,
+        board: BoardImpl,
+        check: RunCheck,
+    }
+
+    #[local]
+    struct Local {
+        tim2: TIM2,
+        tim3: TIM3,
+        tim4: TIM4,
+        producer: Producer<'static, Record>,
+        consumer: Consumer<'static, Record>,
+        piezo_ticks: u32,
+        motor_steps: u32,
+        last_heartbeat: u32,
+        supervisor_ticks: u32,
+        reported_fault: bool,
+        telemetry_drops: u32,
+        fault_sent: bool,
+        #[cfg(feature = "hw")]
+        iwdg: stm32f4::stm32f405::IWDG,
+    }
+
+    /// Configures a timer to raise its update interrupt every `period` input-clock counts.
+    /// CNT is written last (a QEMU timer pitfall); nothing touches CNT or EGR afterwards.
+    macro_rules! periodic {
+        ($tim:expr, $period:expr, $psc:expr) => {{
+            let tim = &$tim;
+            tim.cr1().write(|w| w.cen().clear_bit());
+            tim.psc().write(|w| w.psc().set(($psc - 1) as u16));
+            tim.arr()
+                .write(|w| w.arr().set((($period / $psc) - 1) as _));
+            tim.egr().write(|w| w.ug().set_bit());
+            tim.sr().write(|w| w.uif().clear_bit());
+            tim.dier().write(|w| w.uie().set_bit());
+            tim.cr1().write(|w| w.cen().set_bit());
+            tim.cnt().write(|w| w.cnt().set(0));
+        }};
+    }
+
+    #[init(local = [queue: telemetry::Queue = telemetry::Queue::new()])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let dp = cx.device;
+        #[cfg(feature = "hw")]
+        let reset_by_watchdog = crate::board::hw::clocks_and_reset_cause(&dp.RCC, &dp.FLASH);
+
+        // Timers: TIM2 piezo, TIM3 motor, TIM4 supervisor, TIM5 free-running clock.
+        dp.RCC.apb1enr().modify(|_, w| {
+            w.tim2en()
+                .set_bit()
+                .tim3en()
+                .set_bit()
+                .tim4en()
+                .set_bit()
+                .tim5en()
+                .set_bit()
+        });
+        #[cfg(feature = "qemu")]
+        {
+            dp.TIM5.psc().write(|w| w.psc().set(0));
+            dp.TIM5.arr().write(|w| w.arr().set(u32::MAX));
+            dp.TIM5.cr1().write(|w| w.cen().set_bit());
+            dp.TIM5.cnt().write(|w| w.cnt().set(0));
+        }
+        #[cfg(not(feature = "qemu"))]
+        {
+            let mut cp = cx.core;
+            cp.DCB.enable_trace();
+            cp.DWT.enable_cycle_counter();
+        }
+
+        let arm = ArmParams::<f32>::default();
+        let limits = Limits::<f32>::default();
+        let patch = PiezoPatch::<f32>::paper();
+        let piezo_period = 1.0 / PIEZO_HZ as f32;
+        let motor_period = 1.0 / MOTOR_HZ as f32;
+        let mut ctrl = Controller::new(
+            MotorController {
+                model: Model::new(arm),
+                gains: Gains::default(),
+                limits,
+                law: MotorLaw::Tracking,
+            },
+            PiezoLaw::new(&PiezoGains::default(), piezo_period, limits.v_a_max),
+            patch,
+            Observer::new(
+                gain(config::OBSERVER_GAIN),
+                film_map(&patch),
+                motor_period,
+                Vector2::zeros(),
+            ),
+            SensorLimits::default(),
+            JointTrajectory::Trapezoid(Trapezoid::paper()),
+            motor_period,
+            config::STALE_LIMIT,
+        );
+        #[cfg(feature = "hw")]
+        if reset_by_watchdog {
+            ctrl.trip(Fault::Watchdog);
+        }
+
+        #[cfg(feature = "qemu")]
+        let board = {
+            use flexarm_core::simarm::{SensorModel, SimArm};
+            let sim = SimArm::new(
+                Model::new(arm),
+                patch,
+                flexarm_core::Vector4::zeros(),
+                SensorModel::default(),
+            );
+            BoardImpl::new(sim, piezo_period)
+        };
+        #[cfg(feature = "hw")]
+        let board = BoardImpl::new(
+            dp.GPIOA, dp.GPIOB, dp.GPIOC, dp.TIM1, dp.TIM8, dp.TIM12, dp.ADC1, dp.DAC, &dp.RCC,
+        );
+
+        // The observer starts where the encoders are.
+        let mut board = board;
+        ctrl.reset_observer(board.encoders());
+        if let Some(f) = ctrl.fault() {
+            defmt::error!("starting in the safe state: {=str}", f.as_str());
+        }
+
+        #[cfg(feature = "hw")]
+        let iwdg = crate::board::hw::start_watchdog(dp.IWDG);
+
+        // Piezo first, then motor, then supervisor: at common instants the update events come in
+        // that order, so the motor loop sees the plant the piezo loop just advanced.
+        periodic!(dp.TIM2, TIMER_CLOCK_HZ / PIEZO_HZ, 1u32);
+        periodic!(
+            dp.TIM3,
+            TIMER_CLOCK_HZ / MOTOR_HZ,
+            TIMER_CLOCK_HZ / 1_000_000
+        );
+        periodic!(
+            dp.TIM4,
+            TIMER_CLOCK_HZ / SUPERVISOR_HZ,
+            TIMER_CLOCK_HZ / 100_000
+        );
+
+        let (producer, consumer) = cx.local.queue.split();
+        defmt::info!(
+            "flexarm firmware: piezo loop {=u32} Hz, motor loop {=u32} Hz, supervisor {=u32} Hz",
+            PIEZO_HZ,
+            MOTOR_HZ,
+            SUPERVISOR_HZ
+        );
+        (
+            Shared {
+                ctrl,
+                board,
+                check: RunCheck::default(),
+            },
+            Local {
+                tim2: dp.TIM2,
+                tim3: dp.TIM3,
+                tim4: dp.TIM4,
+                producer,
+                consumer,
+                piezo_ticks: 0,
+                motor_steps: 0,
+                last_heartbeat: 0,
+                supervisor_ticks: 0,
+                reported_fault: false,
+                telemetry_drops: 0,
+                fault_sent: false,
+                #[cfg(feature = "hw")]
+                iwdg,
+            },
+        )
+    }
+
+    /// Telemetry: prints queued records; at the end of a QEMU run, checks the bounds and exits.
+    #[idle(local = [consumer], shared = [check, ctrl, board])]
+    fn idle(mut cx: idle::Context) -> ! {
+        loop {
+            while let Some(r) = cx.local.consumer.dequeue() {
+                telemetry::print(&r);
+            }
+            if cx.shared.check.lock(|c| c.finished) {
+                #[cfg(feature = "qemu")]
+                finish(&mut cx);
+            }
+            cortex_m::asm::wfi();
+        }
+    }
+
+    #[cfg(feature = "qemu")]
+    fn finish(cx: &mut idle::Context) {
+        use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
+        let fault = cx.shared.ctrl.lock(|c| c.fault());
+        let enabled = cx.shared.board.lock(|b| b.arm.enabled());
+        let ok = cx.shared.check.lock(|c| {
+            let tail = c.tail_error_sum / c.tail_samples.max(1) as f32;
+            crate::verdict::judge(c.max_error, tail, c.max_tip, c.final_tip, fault, enabled)
+        });
+        exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
+    }
+
+    /// Piezo loop: film voltage in, actuator voltage out (Eq. 17).
+    #[task(binds = TIM2, priority = 3, local = [tim2, piezo_ticks], shared = [ctrl, board])]
+    fn piezo_loop(mut cx: piezo_loop::Context) {
+        let start = clock::now();
+        cx.local.tim2.sr().write(|w| w.uif().clear_bit());
+        *cx.local.piezo_ticks = cx.local.piezo_ticks.wrapping_add(1);
+        #[allow(unused_mut)]
+        let mut v_f = cx.shared.board.lock(|b| b.film_voltage());
+        #[cfg(feature = "inject-nan")]
+        if *cx.local.piezo_ticks == PIEZO_HZ {
+            defmt::warn!("injecting a NaN film sample at t = 1 s");
+            v_f = f32::NAN;
+        }
+        let v_a = cx.shared.ctrl.lock(|c| c.piezo_step(v_f));
+        cx.shared.board.lock(|b| {
+            b.set_piezo(v_a);
+            b.tick();
+        });
+        let missed = cx.local.tim2.sr().read().uif().bit_is_set();
+        stats::PIEZO.record(clock::now().wrapping_sub(start), missed);
+        if missed {
+            cx.shared.ctrl.lock(|c| c.trip(Fault::Overrun));
+            cx.shared.board.lock(safe_outputs);
+        }
+    }
+
+    /// Motor loop: encoders and film in, observer, Eq. 7, torques out.
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, motor_steps, telemetry_drops, fault_sent], shared = [ctrl, board, check])]
+    fn motor_loop(mut cx: motor_loop::Context) {
+        let start = clock::now();
+        cx.local.tim3.sr().write(|w| w.uif().clear_bit());
+        let k = *cx.local.motor_steps;
+        *cx.local.motor_steps = k.wrapping_add(1);
+        let t = k as f32 / MOTOR_HZ as f32;
+
+        let (theta, v_f, amp_fault) = cx
+            .shared
+            .board
+            .lock(|b| (b.encoders(), b.film_voltage(), b.amplifier_fault()));
+        let (report, fault) = cx.shared.ctrl.lock(|c| {
+            if amp_fault {
+                c.trip(Fault::Amplifier);
+            }
+            (
+                c.motor_step(t, Some(&Measurement { theta, v_f })),
+                c.fault(),
+            )
+        });
+        let cmd = report.command;
+        cx.shared.board.lock(|b| {
+            b.set_torques(cmd.tau);
+            b.set_enable(cmd.enable);
+        });
+        MOTOR_HEARTBEAT.fetch_add(1, Relaxed);
+
+        // Telemetry: periodic samples; the fault event the moment the latch is seen.
+        let producer = cx.local.producer;
+        let mut push = |r: Record| {
+            if producer.enqueue(r).is_err() {
+                *cx.local.telemetry_drops += 1;
+            }
+        };
+        if let (Some(fault), false) = (fault, *cx.local.fault_sent) {
+            *cx.local.fault_sent = true;
+            push(Record::Fault { t, fault });
+        }
+        if k.is_multiple_of(config::TELEMETRY_EVERY) {
+            let (q, _) = report.estimate;
+            let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);
+            push(Record::Sample {
+                t,
+                error,
+                delta: [q.z, q.w],
+                tau: [cmd.tau.x, cmd.tau.y],
+                v_a: cmd.v_a,
+            });
+        }
+
+        #[cfg(feature = "qemu")]
+        cx.shared.check.lock(|chk| {
+            cx.shared.board.lock(|b| {
+                let x = b.arm.x;
+                let desired = flexarm_core::trajectory::Trapezoid::<f32>::paper()
+                    .sample(t)
+                    .q;
+                let err = (Vector2::new(x.q.x, x.q.y) - desired).abs().max();
+                chk.max_error = chk.max_error.max(err);
+                if t >= config::RUN_SECONDS - 3.0 {
+                    chk.tail_error_sum += err;
+                    chk.tail_samples += 1;
+                }
+                let tip = b.arm.model.tip_deflection(&x.q).abs();
+                chk.max_tip = chk.max_tip.max(tip);
+                chk.final_tip = tip;
+                if b.diverged {
+                    chk.max_error = f32::INFINITY;
+                }
+            });
+            if t >= config::RUN_SECONDS {
+                chk.finished = true;
+            }
+        });
+
+        #[cfg(feature = "inject-overrun")]
+        if k == MOTOR_HZ {
+            defmt::warn!("injecting an overrun at t = 1 s");
+            cortex_m::asm::delay(3 * (TIMER_CLOCK_HZ / MOTOR_HZ));
+        }
+        let missed = cx.local.tim3.sr().read().uif().bit_is_set();
+        stats::MOTOR.record(clock::now().wrapping_sub(start), missed);
+        if missed {
+            cx.shared.ctrl.lock(|c| c.trip(Fault::Overrun));
+            cx.shared.board.lock(safe_outputs);
+        }
+        let _ = t;
+    }
+
+    /// Supervisor: loop liveness, amplifier fault line, watchdog, enable line, fault report,
+    /// load report once a second.
+    #[task(binds = TIM4, priority = 1, local = [tim4, last_heartbeat, supervisor_ticks, reported_fault, #[cfg(feature = "hw")] iwdg], shared = [ctrl, board])]
+    fn supervisor(mut cx: supervisor::Context) {
+        cx.local.tim4.sr().write(|w| w.uif().clear_bit());
+        let beat = MOTOR_HEARTBEAT.load(Relaxed);
+        let alive = beat != *cx.local.last_heartbeat;
+        *cx.local.last_heartbeat = beat;
+        let amp_fault = cx.shared.board.lock(|b| b.amplifier_fault());
+        let fault = cx.shared.ctrl.lock(|c| {
+            if !alive {
+                c.trip(Fault::Overrun);
+            }
+            if amp_fault {
+                c.trip(Fault::Amplifier);
+            }
+            c.fault()
+        });
+        if fault.is_some() {
+            cx.shared.board.lock(safe_outputs);
+        }
+        // Feed the watchdog only while the motor loop runs: a stalled loop resets the chip.
+        #[cfg(feature = "hw")]
+        if alive {
+            crate::board::hw::feed_watchdog(cx.local.iwdg);
+        }
+        if let (Some(f), false) = (fault, *cx.local.reported_fault) {
+            *cx.local.reported_fault = true;
+            defmt::error!("safe state: {=str} (latched until reset)", f.as_str());
+        }
+        *cx.local.supervisor_ticks += 1;
+        if cx.local.supervisor_ticks.is_multiple_of(SUPERVISOR_HZ) {
+            let (pr, pm, px) = stats::PIEZO.take_window();
+            let (mr, mm, mx) = stats::MOTOR.take_window();
+            defmt::info!(
+                "load: piezo {=u32} runs, mean {=u32} max {=u32} counts, {=u32} missed; motor {=u32} runs, mean {=u32} max {=u32} counts, {=u32} missed",
+                pr,
+                pm,
+                px,
+                stats::PIEZO.misses(),
+                mr,
+                mm,
+                mx,
+                stats::MOTOR.misses()
+            );
+        }
+    }
+
+    /// The safe state on the outputs: zero torque, zero voltage, amplifiers disabled.
+    fn safe_outputs(b: &mut BoardImpl) {
+        b.set_torques(Vector2::zeros());
+        b.set_piezo(0.0);
+        b.set_enable(false);
+    }
+}
+
+#[cfg(feature = "qemu")]
+mod verdict;

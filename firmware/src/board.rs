@@ -1,0 +1,31 @@
+//! The board: everything the control tasks read and write, behind one small trait, so that the
+//! tasks never touch a register. Digital lines go through `embedded-hal` 1.0 pin traits.
+//!
+//! Units: angles in rad, film voltage in V (at the sensor, before any gain), torques in N·m,
+//! piezo command in V (at the amplifier's output).
+
+use flexarm_core::Vector2;
+
+#[cfg(feature = "hw")]
+pub mod hw;
+#[cfg(feature = "qemu")]
+pub mod sim;
+
+/// The I/O of the arm.
+pub trait Board {
+    /// Joint angles from the encoders [rad].
+    fn encoders(&mut self) -> Vector2<f32>;
+    /// Film voltage [V].
+    fn film_voltage(&mut self) -> f32;
+    /// Motor torque commands [N·m].
+    fn set_torques(&mut self, tau: Vector2<f32>);
+    /// Piezo amplifier command [V].
+    fn set_piezo(&mut self, v_a: f32);
+    /// Amplifier enable line (all three amplifiers).
+    fn set_enable(&mut self, on: bool);
+    /// `true` while an amplifier reports a fault.
+    fn amplifier_fault(&mut self) -> bool;
+    /// Called once per piezo period after the outputs are written: the simulated board
+    /// advances its plant here; a real board does nothing.
+    fn tick(&mut self) {}
+}

@@ -1,0 +1,310 @@
+//! The hardware board: an STM32F405 (168 MHz from an 8 MHz crystal) wired to two servo
+//! amplifiers in torque (current) mode, a high-voltage piezo amplifier and the PVDF film's
+//! charge amplifier. Pin map (also in the README):
+//!
+//! | signal | pin | peripheral | scaling |
+//! |---|---|---|---|
+//! | encoder 1 A/B | PA8 / PA9 | TIM1 CH1/CH2, encoder mode (AF1) | 16384 counts/rev |
+//! | encoder 2 A/B | PC6 / PC7 | TIM8 CH1/CH2, encoder mode (AF3) | 16384 counts/rev |
+//! | film voltage | PA0 | ADC1 IN0, 12 bit | 0–3.3 V ↔ −10…+10 V at the film |
+//! | piezo command | PA4 | DAC channel 1, 12 bit | 0–3.3 V ↔ −200…+200 V at the amplifier |
+//! | motor 1 torque | PB14 | TIM12 CH1 PWM, 20 kHz (AF9) | duty 0–100 % ↔ −τ_max…+τ_max |
+//! | motor 2 torque | PB15 | TIM12 CH2 PWM, 20 kHz (AF9) | duty 0–100 % ↔ −τ_max…+τ_max |
+//! | amplifier enable | PB12 | GPIO output, active high | all three amplifiers |
+//! | amplifier fault | PB13 | GPIO input, pull-up, active low | wired-OR of the three |
+//!
+//! Register values follow RM0090 (STM32F405 reference manual); each write says what it sets.
+//! The enable and fault lines go through `embedded-hal` 1.0 pin traits.
+
+use core::convert::Infallible;
+use core::f32::consts::TAU;
+
+use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
+use flexarm_core::Vector2;
+use flexarm_core::params::Limits;
+use stm32f4::stm32f405::{ADC1, DAC, FLASH, GPIOA, GPIOB, GPIOC, IWDG, RCC, TIM1, TIM8, TIM12};
+
+use super::Board;
+
+/// Encoder counts per revolution (4096-line encoders, ×4 quadrature).
+const COUNTS_PER_REV: f32 = 16384.0;
+/// Film channel: ±10 V at the film maps to 0–3.3 V at the ADC.
+const FILM_RANGE: f32 = 10.0;
+/// TIM12 input clock (APB1 timers) [Hz] and PWM rate [Hz].
+const TIM12_CLOCK_HZ: u32 = 84_000_000;
+const PWM_HZ: u32 = 20_000;
+
+/// Read-modify-write of the bits under `mask`.
+macro_rules! set_bits {
+    ($reg:expr, $mask:expr, $value:expr) => {
+        // SAFETY: the value is a documented field setting of this register (RM0090).
+        $reg.modify(|r, w| unsafe { w.bits((r.bits() & !($mask)) | ($value)) })
+    };
+}
+
+/// Sets the system clock to 168 MHz (HSE 8 MHz, PLL M = 8, N = 336, P = 2, Q = 7; AHB 168 MHz,
+/// APB1 42 MHz with its timers at 84 MHz, APB2 84 MHz; 5 flash wait states) and returns whether
+/// the last reset came from the independent watchdog (the flag is then cleared).
+pub fn clocks_and_reset_cause(rcc: &RCC, flash: &FLASH) -> bool {
+    let by_watchdog = rcc.csr().read().wdgrstf().bit_is_set();
+    rcc.csr().modify(|_, w| w.rmvf().set_bit());
+    rcc.cr().modify(|_, w| w.hseon().set_bit());
+    while rcc.cr().read().hserdy().bit_is_clear() {}
+    // PLLCFGR: PLLM = 8 (bits 0–5), PLLN = 336 (6–14), PLLP = /2 (16–17 = 0), PLLSRC = HSE (22),
+    // PLLQ = 7 (24–27).
+    set_bits!(
+        rcc.pllcfgr(),
+        0x0F43_7FFF,
+        8 | (336 << 6) | (1 << 22) | (7 << 24)
+    );
+    rcc.cr().modify(|_, w| w.pllon().set_bit());
+    while rcc.cr().read().pllrdy().bit_is_clear() {}
+    // FLASH ACR: LATENCY = 5 WS, prefetch, instruction and data caches on.
+    set_bits!(
+        flash.acr(),
+        0x0000_070F,
+        5 | (1 << 8) | (1 << 9) | (1 << 10)
+    );
+    // CFGR: HPRE = /1 (bits 4–7 = 0), PPRE1 = /4 (10–12 = 0b101), PPRE2 = /2 (13–15 = 0b100).
+    set_bits!(rcc.cfgr(), 0x0000_FCF0, (0b101 << 10) | (0b100 << 13));
+    // SW = PLL (bits 0–1 = 0b10), wait for SWS = PLL (bits 2–3).
+    set_bits!(rcc.cfgr(), 0x3, 0b10);
+    while (rcc.cfgr().read().bits() >> 2) & 0x3 != 0b10 {}
+    by_watchdog
+}
+
+/// Starts the independent watchdog: LSI 32 kHz / 32, reload 500, a timeout of 0.5 s.
+pub fn start_watchdog(iwdg: IWDG) -> IWDG {
+    iwdg.kr().write(|w| w.key().unlock()); // unlock PR and RLR
+    iwdg.pr().write(|w| w.pr().set(0b011)); // /32
+    iwdg.rlr().write(|w| w.rl().set(500));
+    iwdg.kr().write(|w| w.key().start()); // start
+    iwdg
+}
+
+/// Reloads the watchdog counter.
+pub fn feed_watchdog(iwdg: &mut IWDG) {
+    iwdg.kr().write(|w| w.key().feed());
+}
+
+/// A GPIOB pin, accessed through the atomic BSRR (set/reset) and the read-only IDR.
+pub struct PortBPin<const N: u8>;
+
+impl<const N: u8> PortBPin<N> {
+    fn regs() -> &'static stm32f4::stm32f405::gpioa::RegisterBlock {
+        // SAFETY: only BSRR (atomic, write-only) and IDR (read-only) are used, so concurrent
+        // use of different pins of the port cannot race; GPIOB's configuration is done once in
+        // `HwBoard::new` before any pin is used.
+        unsafe { &*GPIOB::ptr().cast() }
+    }
+}
+
+impl<const N: u8> ErrorType for PortBPin<N> {
+    type Error = Infallible;
+}
+
+impl<const N: u8> OutputPin for PortBPin<N> {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        // SAFETY: BSRR bit 16 + N resets pin N only.
+        Self::regs()
+            .bsrr()
+            .write(|w| unsafe { w.bits(1 << (16 + u32::from(N))) });
+        Ok(())
+    }
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        // SAFETY: BSRR bit N sets pin N only.
+        Self::regs().bsrr().write(|w| unsafe { w.bits(1 << N) });
+        Ok(())
+    }
+}
+
+impl<const N: u8> InputPin for PortBPin<N> {
+    fn is_high(&mut self) -> Result<bool, Infallible> {
+        Ok(Self::regs().idr().read().bits() & (1 << N) != 0)
+    }
+    fn is_low(&mut self) -> Result<bool, Infallible> {
+        Ok(Self::regs().idr().read().bits() & (1 << N) == 0)
+    }
+}
+
+/// The board's peripherals.
+pub struct HwBoard {
+    tim1: TIM1,
+    tim8: TIM8,
+    tim12: TIM12,
+    adc: ADC1,
+    dac: DAC,
+    enable: PortBPin<12>,
+    fault_n: PortBPin<13>,
+    /// Last raw counts and accumulated counts of each encoder (16-bit timers, unwrapped).
+    raw: [u16; 2],
+    counts: [i32; 2],
+    tau_max: Vector2<f32>,
+    v_a_max: f32,
+    pwm_period: u32,
+}
+
+impl HwBoard {
+    /// Configures the pins and peripherals of the pin map, outputs at zero, amplifiers off.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        gpioa: GPIOA,
+        gpiob: GPIOB,
+        gpioc: GPIOC,
+        tim1: TIM1,
+        tim8: TIM8,
+        tim12: TIM12,
+        adc: ADC1,
+        dac: DAC,
+        rcc: &RCC,
+    ) -> Self {
+        // Clocks: GPIOA/B/C (AHB1ENR bits 0–2); TIM12, DAC (APB1ENR bits 6, 29);
+        // TIM1, TIM8, ADC1 (APB2ENR bits 0, 1, 8).
+        set_bits!(rcc.ahb1enr(), 0x7, 0x7);
+        set_bits!(rcc.apb1enr(), (1 << 6) | (1 << 29), (1 << 6) | (1 << 29));
+        set_bits!(
+            rcc.apb2enr(),
+            1 | (1 << 1) | (1 << 8),
+            1 | (1 << 1) | (1 << 8)
+        );
+
+        // GPIOA: PA0 analog (ADC), PA4 analog (DAC), PA8/PA9 AF1 (TIM1).
+        set_bits!(
+            gpioa.moder(),
+            3 | (3 << 8) | (3 << 16) | (3 << 18),
+            3 | (3 << 8) | (2 << 16) | (2 << 18)
+        );
+        set_bits!(gpioa.afrh(), 0xFF, 0x11);
+        // GPIOC: PC6/PC7 AF3 (TIM8).
+        set_bits!(gpioc.moder(), (3 << 12) | (3 << 14), (2 << 12) | (2 << 14));
+        set_bits!(gpioc.afrl(), 0xFF << 24, 0x33 << 24);
+        // GPIOB: PB12 output (enable, low first), PB13 input with pull-up, PB14/PB15 AF9 (TIM12).
+        // SAFETY: BSRR bit 28 resets PB12.
+        gpiob.bsrr().write(|w| unsafe { w.bits(1 << 28) });
+        set_bits!(gpiob.moder(), 0xFF << 24, (1 << 24) | (2 << 28) | (2 << 30));
+        set_bits!(gpiob.pupdr(), 3 << 26, 1 << 26);
+        set_bits!(gpiob.afrh(), 0xFF << 24, 0x99 << 24);
+
+        // Encoders: SMCR SMS = 0b011 (count on both edges of both inputs), CCMR1 CC1S = CC2S =
+        // 0b01 (TI1, TI2), input filter 0b0011, ARR = 0xFFFF, counter on.
+        macro_rules! encoder {
+            ($t:expr) => {{
+                set_bits!($t.smcr(), 0x7, 0b011);
+                set_bits!(
+                    $t.ccmr1_input(),
+                    0xF3F3,
+                    0x0101 | (0b0011 << 4) | (0b0011 << 12)
+                );
+                set_bits!($t.arr(), 0xFFFF, 0xFFFF);
+                set_bits!($t.cr1(), 1, 1);
+            }};
+        }
+        encoder!(tim1);
+        encoder!(tim8);
+
+        // Motor PWM on TIM12: PWM mode 1 with preload on CH1/CH2, 50 % (zero torque), on.
+        let pwm_period = TIM12_CLOCK_HZ / PWM_HZ;
+        set_bits!(tim12.arr(), 0xFFFF, pwm_period - 1);
+        set_bits!(
+            tim12.ccmr1_output(),
+            0x7878,
+            (0b110 << 4) | (1 << 3) | (0b110 << 12) | (1 << 11)
+        );
+        set_bits!(tim12.ccr1(), 0xFFFF, pwm_period / 2);
+        set_bits!(tim12.ccr2(), 0xFFFF, pwm_period / 2);
+        set_bits!(tim12.ccer(), 0x11, 0x11);
+        set_bits!(tim12.cr1(), 0x81, 0x81);
+
+        // ADC1: 12 bit, IN0 first in the sequence, 84-cycle sampling, on.
+        set_bits!(adc.sqr3(), 0x1F, 0);
+        set_bits!(adc.smpr2(), 0x7, 0b100);
+        set_bits!(adc.cr2(), 1, 1);
+        // DAC channel 1: output buffer on, enabled, mid-scale (0 V at the piezo).
+        set_bits!(dac.cr(), 0x3, 0x1);
+        set_bits!(dac.dhr12r1(), 0xFFF, 2048);
+
+        let limits = Limits::<f32>::default();
+        let raw = [
+            tim1.cnt().read().bits() as u16,
+            tim8.cnt().read().bits() as u16,
+        ];
+        Self {
+            tim1,
+            tim8,
+            tim12,
+            adc,
+            dac,
+            enable: PortBPin,
+            fault_n: PortBPin,
+            raw,
+            counts: [0; 2],
+            tau_max: limits.tau_max,
+            v_a_max: limits.v_a_max,
+            pwm_period,
+        }
+    }
+
+    /// Duty count for `x` in [−1, 1] (50 % at 0).
+    fn duty(&self, x: f32) -> u32 {
+        let x = if x.is_nan() { 0.0 } else { x.clamp(-1.0, 1.0) };
+        ((x + 1.0) * 0.5 * self.pwm_period as f32) as u32
+    }
+}
+
+impl Board for HwBoard {
+    fn encoders(&mut self) -> Vector2<f32> {
+        let now = [
+            self.tim1.cnt().read().bits() as u16,
+            self.tim8.cnt().read().bits() as u16,
+        ];
+        for ((n, raw), count) in now
+            .iter()
+            .zip(self.raw.iter_mut())
+            .zip(self.counts.iter_mut())
+        {
+            // The 16-bit counter wraps; the signed difference is right for moves below half a
+            // turn of the counter per period (32768 counts = 2 rev per motor period).
+            let step = n.wrapping_sub(*raw) as i16;
+            *count = count.wrapping_add(i32::from(step));
+            *raw = *n;
+        }
+        Vector2::new(self.counts[0] as f32, self.counts[1] as f32) * (TAU / COUNTS_PER_REV)
+    }
+
+    fn film_voltage(&mut self) -> f32 {
+        set_bits!(self.adc.cr2(), 1 << 30, 1 << 30); // SWSTART
+        while self.adc.sr().read().bits() & (1 << 1) == 0 {} // EOC
+        let code = (self.adc.dr().read().bits() & 0xFFF) as f32;
+        (code / 4095.0 * 2.0 - 1.0) * FILM_RANGE
+    }
+
+    fn set_torques(&mut self, tau: Vector2<f32>) {
+        let d1 = self.duty(tau.x / self.tau_max.x);
+        let d2 = self.duty(tau.y / self.tau_max.y);
+        set_bits!(self.tim12.ccr1(), 0xFFFF, d1);
+        set_bits!(self.tim12.ccr2(), 0xFFFF, d2);
+    }
+
+    fn set_piezo(&mut self, v_a: f32) {
+        let x = if v_a.is_nan() {
+            0.0
+        } else {
+            (v_a / self.v_a_max).clamp(-1.0, 1.0)
+        };
+        let code = ((x + 1.0) * 0.5 * 4095.0) as u32;
+        set_bits!(self.dac.dhr12r1(), 0xFFF, code);
+    }
+
+    fn set_enable(&mut self, on: bool) {
+        let Ok(()) = if on {
+            self.enable.set_high()
+        } else {
+            self.enable.set_low()
+        };
+    }
+
+    fn amplifier_fault(&mut self) -> bool {
+        let Ok(low) = self.fault_n.is_low();
+        low
+    }
+}

@@ -1,0 +1,59 @@
+//! Loop rates and run settings per board.
+//!
+//! QEMU clocks TIM2–TIM5 at 1 GHz whatever RCC says, and its timers lose accuracy above about
+//! 1 kHz, so the QEMU board runs the loops ten times slower than the hardware (piezo 1 kHz,
+//! motor 100 Hz) with the plant stepped at the piezo period and the observer gain designed for
+//! 100 Hz. The hardware runs at 168 MHz with the APB1 timers at 84 MHz.
+
+/// Timer input clock [Hz].
+#[cfg(feature = "qemu")]
+pub const TIMER_CLOCK_HZ: u32 = 1_000_000_000;
+/// Timer input clock [Hz].
+#[cfg(not(feature = "qemu"))]
+pub const TIMER_CLOCK_HZ: u32 = 84_000_000;
+
+/// Piezo loop rate [Hz].
+#[cfg(feature = "qemu")]
+pub const PIEZO_HZ: u32 = 1_000;
+/// Piezo loop rate [Hz].
+#[cfg(not(feature = "qemu"))]
+pub const PIEZO_HZ: u32 = 10_000;
+
+/// Piezo periods per motor period (motor loop 100 Hz under QEMU, 1 kHz on hardware).
+pub const MOTOR_DIVIDER: u32 = 10;
+/// Motor loop rate [Hz].
+pub const MOTOR_HZ: u32 = PIEZO_HZ / MOTOR_DIVIDER;
+/// Supervisor rate [Hz].
+pub const SUPERVISOR_HZ: u32 = 10;
+
+/// Observer gain table for the motor rate.
+#[cfg(feature = "qemu")]
+pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &flexarm_core::observer_gains::GAIN_100HZ;
+/// Observer gain table for the motor rate.
+#[cfg(not(feature = "qemu"))]
+pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &flexarm_core::observer_gains::GAIN_1KHZ;
+
+/// Motor periods tolerated without a fresh sample before [`flexarm_core::Fault::Stale`].
+pub const STALE_LIMIT: u32 = 3;
+/// Motor steps between two telemetry samples.
+pub const TELEMETRY_EVERY: u32 = MOTOR_HZ / 10;
+
+/// Length of the QEMU run [s]: the paper's 5 s trapezoid plus 1 s.
+#[cfg(feature = "qemu")]
+pub const RUN_SECONDS: f32 = 6.0;
+
+/// Bounds the QEMU run checks. The host runs the same code at the same rates
+/// (`cargo test -p flexarm-tests --test firmware_loop -- --nocapture`: max error 4.2e-3 rad,
+/// last-3-s mean 3.3e-4 rad, max tip 9.2e-3 m, final tip 1.3e-4 m); the bounds leave a
+/// factor of about 3 over those figures.
+#[cfg(feature = "qemu")]
+pub mod bounds {
+    /// Largest joint tracking error over the run [rad].
+    pub const MAX_ERROR: f32 = 0.015;
+    /// Mean joint tracking error over the last 3 s [rad].
+    pub const TAIL_ERROR: f32 = 1e-3;
+    /// Largest tip deflection over the run [m].
+    pub const MAX_TIP: f32 = 0.03;
+    /// Tip deflection at the end of the run [m].
+    pub const FINAL_TIP: f32 = 5e-4;
+}

@@ -1,0 +1,57 @@
+//! Telemetry records, queued by the control loops and printed by the lowest-priority task.
+
+use flexarm_core::Fault;
+
+/// One telemetry record.
+#[derive(Clone, Copy, Debug)]
+pub enum Record {
+    /// A periodic sample of the motor loop.
+    Sample {
+        /// Time since the trajectory started [s].
+        t: f32,
+        /// Joint tracking errors θ − θ_d [rad].
+        error: [f32; 2],
+        /// Estimated modal coordinates δ̂ [√kg·m].
+        delta: [f32; 2],
+        /// Motor torques applied [N·m].
+        tau: [f32; 2],
+        /// Piezo command [V].
+        v_a: f32,
+    },
+    /// The controller latched a fault.
+    Fault {
+        /// Time [s].
+        t: f32,
+        /// The cause.
+        fault: Fault,
+    },
+}
+
+/// Capacity of the queue (records).
+pub const CAPACITY: usize = 64;
+/// The queue between the control loops and the telemetry task.
+pub type Queue = heapless::spsc::Queue<Record, CAPACITY>;
+
+/// Prints one record with defmt.
+pub fn print(r: &Record) {
+    match *r {
+        Record::Sample {
+            t,
+            error,
+            delta,
+            tau,
+            v_a,
+        } => defmt::info!(
+            "t={=f32} s err=({=f32},{=f32}) rad delta=({=f32},{=f32}) tau=({=f32},{=f32}) N*m V_a={=f32} V",
+            t,
+            error[0],
+            error[1],
+            delta[0],
+            delta[1],
+            tau[0],
+            tau[1],
+            v_a
+        ),
+        Record::Fault { t, fault } => defmt::error!("t={=f32} s FAULT: {=str}", t, fault.as_str()),
+    }
+}

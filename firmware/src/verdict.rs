@@ -1,0 +1,70 @@
+//! The QEMU run's verdict: the bounds of `config::bounds`, no deadline miss, and the fault the
+//! run was built to inject (none for a plain run).
+
+use flexarm_core::Fault;
+
+use crate::config::bounds;
+use crate::stats;
+
+/// The fault an injection build expects; `None` for the plain run.
+const EXPECTED_FAULT: Option<Fault> = if cfg!(feature = "inject-nan") {
+    Some(Fault::NonFinite)
+} else if cfg!(feature = "inject-overrun") {
+    Some(Fault::Overrun)
+} else {
+    None
+};
+
+/// Logs the figures and returns whether the run passed.
+pub fn judge(
+    max_error: f32,
+    tail_error: f32,
+    max_tip: f32,
+    final_tip: f32,
+    fault: Option<Fault>,
+    enabled: bool,
+) -> bool {
+    let misses = stats::PIEZO.misses() + stats::MOTOR.misses();
+    defmt::info!(
+        "run: max |θ − θ_d| {=f32} rad (bound {=f32}), last-3-s mean {=f32} rad (bound {=f32}), max |tip| {=f32} m (bound {=f32}), final |tip| {=f32} m (bound {=f32}), deadline misses {=u32}",
+        max_error,
+        bounds::MAX_ERROR,
+        tail_error,
+        bounds::TAIL_ERROR,
+        max_tip,
+        bounds::MAX_TIP,
+        final_tip,
+        bounds::FINAL_TIP,
+        misses
+    );
+    match (EXPECTED_FAULT, fault) {
+        (None, None) => {
+            let ok = max_error <= bounds::MAX_ERROR
+                && tail_error <= bounds::TAIL_ERROR
+                && max_tip <= bounds::MAX_TIP
+                && final_tip <= bounds::FINAL_TIP
+                && misses == 0;
+            if ok {
+                defmt::info!("PASS: tracking and vibration within bounds, no deadline missed");
+            } else {
+                defmt::error!("FAIL: a bound was exceeded or a deadline missed");
+            }
+            ok
+        }
+        (Some(want), Some(got)) if want == got && !enabled => {
+            defmt::info!(
+                "PASS: injected fault latched as {=str}; outputs held safe",
+                got.as_str()
+            );
+            true
+        }
+        (want, got) => {
+            defmt::error!(
+                "FAIL: expected fault {=str}, got {=str}",
+                want.map_or("none", Fault::as_str),
+                got.map_or("none", Fault::as_str)
+            );
+            false
+        }
+    }
+}
