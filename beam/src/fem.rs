@@ -148,6 +148,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::needless_range_loop)]
     fn fem_agrees_with_exact_segmented_modes() {
         for (x_a, l_a, tip_m, tip_j) in [
             (0.09, 0.35, 0.0, 0.0),

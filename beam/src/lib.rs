@@ -5,6 +5,8 @@
 //! dissipated energy (Eqs. 21–33), and the placement optimization (Eqs. 34–35).
 //! `docs/optimization.md` states every choice made where the paper is silent.
 
+pub mod design;
 pub mod fem;
+pub mod lyapunov;
 pub mod section;
 pub mod segmented;
