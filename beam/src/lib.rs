@@ -5,8 +5,10 @@
 //! dissipated energy (Eqs. 21–33), and the placement optimization (Eqs. 34–35).
 //! `docs/optimization.md` states every choice made where the paper is silent.
 
+pub mod config;
 pub mod design;
 pub mod fem;
 pub mod lyapunov;
+pub mod optimize;
 pub mod section;
 pub mod segmented;
