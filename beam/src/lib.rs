@@ -8,6 +8,7 @@
 pub mod config;
 pub mod design;
 pub mod fem;
+pub mod fragment;
 pub mod lyapunov;
 pub mod optimize;
 pub mod section;

@@ -247,7 +247,7 @@ impl SegmentedBeam {
     pub fn frequencies(&self, count: usize) -> Result<Vec<f64>, BeamError> {
         // Scan x = β L of a reference beam (the stiffest section with the lightest mass per
         // length over the whole length), ω = scale · x². Roots are about π apart in the β L of
-        // every section; the step is 1/80 of that spacing, shrunk by the section contrast
+        // every section; the step is 1/16 of that spacing, shrunk by the section contrast
         // (how much larger β L can be in another section at the same ω).
         let scale = self.omega_scale();
         let fold = |f: fn(f64, f64) -> f64, init: f64, g: fn(&Segment) -> f64| {
@@ -258,7 +258,7 @@ impl SegmentedBeam {
         let ra_min = fold(f64::min, f64::INFINITY, |s| s.rho_a);
         let ra_max = fold(f64::max, 0.0, |s| s.rho_a);
         let contrast = ((ra_max / ei_min) / (ra_min / ei_max)).sqrt().sqrt();
-        let step = 0.04 / contrast;
+        let step = 0.2 / contrast;
         let bl_start = 0.01;
         let bl_max = (count as f64 + 2.0) * std::f64::consts::PI * 1.5 + 10.0;
         let omega_of = |bl: f64| scale * bl * bl;

@@ -1,0 +1,190 @@
+//! The chosen patch as a `[piezo]` TOML fragment that a scenario file can include, and the
+//! computed modal data in the core's [`ModalData`] form.
+//!
+//! Keys (all SI; `docs/optimization.md` repeats them):
+//!
+//! | key | unit | meaning |
+//! |---|---|---|
+//! | `piezo.x_a` | m | patch start from joint 2 |
+//! | `piezo.l_a` | m | patch length |
+//! | `piezo.k_c` | s | rate-feedback gain of `V_a = −k_c V̇_f` |
+//! | `piezo.k_a` | N·m/V | actuator moment per volt |
+//! | `piezo.k_s` | V/rad | film volts per radian of slope difference |
+//! | `piezo.c_s` | V²/(N·m) | `k_s / k_a` (Eq. 19) |
+//! | `piezo.modes` | – | `"paper"` (default): the controller and plant keep the paper's frequencies and uniform-link shapes; `"computed"`: use `[piezo.computed]` |
+//! | `piezo.slope_diff` | 1/(m·√kg) | `Δφ'` of the uniform arm shapes (`m2`, `a2` of the arm), used with `modes = "paper"` |
+//! | `piezo.computed.omega` | rad/s | frequencies of the patched design beam |
+//! | `piezo.computed.frequency_hz` | Hz | the same in Hz |
+//! | `piezo.computed.zeta` | – | damping ratios used by the optimizer |
+//! | `piezo.computed.slope_diff` | 1/(m·√kg) | `Δφ'` of the patched beam's unit-modal-mass modes |
+//! | `piezo.computed.c_a` | N/(V·√kg) | `k_a Δφ'` (Eq. 18) |
+//! | `piezo.computed.mass_integral` | √kg·m | `∫ρφ dx` (+ tip mass term) |
+//! | `piezo.computed.moment_integral` | √kg·m² | `∫ρxφ dx` (+ tip terms) |
+//! | `piezo.computed.tip` | 1/√kg | `φ(a2)` |
+//! | `piezo.computed.beam_mass` | kg | mass of the design beam with the patch |
+
+use crate::design::{DesignModel, PatchModes};
+use crate::optimize::Optimum;
+use flexarm_core::Vector2;
+use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_core::params::{ArmParams, ModalData};
+
+/// Modal integrals of the patched beam: `(∫ρφ + M φ(L), ∫ρxφ + M L φ(L) + J φ'(L), φ(L))`
+/// per mode.
+pub fn integrals(model: &DesignModel, pm: &PatchModes) -> Vec<(f64, f64, f64)> {
+    let l = model.length;
+    pm.modes
+        .iter()
+        .map(|m| {
+            let (tip, tip_s) = (m.phi(l), m.slope(l));
+            (
+                m.integrate(|_, p| p) + model.tip_mass * tip,
+                m.integrate(|x, p| x * p) + model.tip_mass * l * tip + model.tip_inertia * tip_s,
+                tip,
+            )
+        })
+        .collect()
+}
+
+/// The computed modes as the core's [`ModalData`] (needs exactly two modes).
+pub fn modal_data(model: &DesignModel, pm: &PatchModes) -> Option<ModalData<f64>> {
+    if pm.modes.len() != 2 || model.zeta.len() != 2 {
+        return None;
+    }
+    let ints = integrals(model, pm);
+    let v = |f: &dyn Fn(usize) -> f64| Vector2::new(f(0), f(1));
+    Some(ModalData {
+        omega: v(&|j| pm.modes[j].omega),
+        zeta: v(&|j| model.zeta[j]),
+        mass_integral: v(&|j| ints[j].0),
+        moment_integral: v(&|j| ints[j].1),
+        tip: v(&|j| ints[j].2),
+    })
+}
+
+fn list(v: &[f64]) -> String {
+    let items: Vec<String> = v.iter().map(|x| format!("{x:?}")).collect();
+    format!("[{}]", items.join(", "))
+}
+
+/// The `[piezo]` fragment for the design point `opt` on the arm `arm`.
+pub fn piezo_fragment(model: &DesignModel, opt: &Optimum, arm: &ArmParams<f64>) -> String {
+    let pm = &opt.modes;
+    let uniform = PiezoPatch::uniform(
+        &model.layers.material,
+        arm.m2,
+        arm.a2,
+        opt.x_a,
+        opt.l_a.min(arm.a2 - opt.x_a).max(0.0),
+    );
+    let ints = integrals(model, pm);
+    let omega = pm.omega();
+    let hz: Vec<f64> = omega
+        .iter()
+        .map(|w| w / std::f64::consts::TAU)
+        .collect();
+    let c_a: Vec<f64> = pm.slope_diff.iter().map(|d| d * pm.k_a).collect();
+    let col = |f: fn(&(f64, f64, f64)) -> f64| ints.iter().map(f).collect::<Vec<f64>>();
+    let beam_mass = model
+        .beam(opt.x_a, opt.l_a)
+        .map_or(f64::NAN, |b| b.mass());
+    format!(
+        "# Piezo patch chosen by `flexarm-sim optimize` (flexarm-beam). Keys: docs/optimization.md.\n\
+         [piezo]\n\
+         x_a = {:?}   # patch start from joint 2 [m]\n\
+         l_a = {:?}   # patch length [m]\n\
+         k_c = {:?}   # rate-feedback gain, V_a = -k_c dV_f/dt [s]\n\
+         k_a = {:?}   # actuator moment per volt [N m/V]\n\
+         k_s = {:?}   # film volts per radian of slope difference [V/rad]\n\
+         c_s = {:?}   # k_s / k_a (Eq. 19) [V^2/(N m)]\n\
+         modes = \"paper\"   # \"paper\": paper's frequencies, uniform shapes; \"computed\": [piezo.computed]\n\
+         slope_diff = {}   # delta phi' of the uniform arm shapes (m2 = {:?} kg, a2 = {:?} m) [1/(m sqrt(kg))]\n\
+         \n\
+         [piezo.computed]   # the segmented design beam with this patch, unit modal mass\n\
+         omega = {}   # [rad/s]\n\
+         frequency_hz = {}   # [Hz]\n\
+         zeta = {}   # [-]\n\
+         slope_diff = {}   # [1/(m sqrt(kg))]\n\
+         c_a = {}   # k_a * slope_diff (Eq. 18) [N/(V sqrt(kg))]\n\
+         mass_integral = {}   # int rho phi dx [sqrt(kg) m]\n\
+         moment_integral = {}   # int rho x phi dx [sqrt(kg) m^2]\n\
+         tip = {}   # phi(a2) [1/sqrt(kg)]\n\
+         beam_mass = {:?}   # design beam with the patch [kg]\n",
+        opt.x_a,
+        opt.l_a,
+        opt.k_c,
+        pm.k_a,
+        pm.k_s,
+        pm.k_s / pm.k_a,
+        list(&[uniform.slope_diff.x, uniform.slope_diff.y]),
+        arm.m2,
+        arm.a2,
+        list(&omega),
+        list(&hz),
+        list(&model.zeta),
+        list(&pm.slope_diff),
+        list(&c_a),
+        list(&col(|t| t.0)),
+        list(&col(|t| t.1)),
+        list(&col(|t| t.2)),
+        beam_mass,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::Weights;
+    use crate::optimize::evaluate;
+
+    #[test]
+    fn fragment_is_valid_toml_with_the_design_values() {
+        let m = DesignModel::default();
+        let Some(opt) = evaluate(&m, &Weights::default(), 0.09, 0.35, 30.0) else {
+            unreachable!("feasible")
+        };
+        let text = piezo_fragment(&m, &opt, &ArmParams::default());
+        let t: Result<toml::Table, _> = toml::from_str(&text);
+        let Ok(t) = t else {
+            unreachable!("invalid TOML: {text}")
+        };
+        let p = t.get("piezo").and_then(|v| v.as_table());
+        let get = |k: &str| p.and_then(|p| p.get(k)).and_then(|v| v.as_float());
+        assert_eq!(get("x_a"), Some(0.09));
+        assert_eq!(get("l_a"), Some(0.35));
+        assert_eq!(get("k_c"), Some(30.0));
+        // The uniform slope differences are the core's for the paper's patch.
+        let core = PiezoPatch::<f64>::paper();
+        let sd = p
+            .and_then(|p| p.get("slope_diff"))
+            .and_then(|v| v.as_array())
+            .map(|a| a.iter().filter_map(|x| x.as_float()).collect::<Vec<_>>());
+        assert_eq!(sd, Some(vec![core.slope_diff.x, core.slope_diff.y]));
+        let c = p
+            .and_then(|p| p.get("computed"))
+            .and_then(|v| v.as_table())
+            .and_then(|c| c.get("omega"))
+            .and_then(|v| v.as_array())
+            .map(|a| a.len());
+        assert_eq!(c, Some(2));
+    }
+
+    #[test]
+    fn modal_data_of_a_bare_uniform_beam_is_the_core_closed_form() {
+        let m = DesignModel {
+            patch_structure: false,
+            ..DesignModel::default()
+        };
+        let Ok(pm) = m.patch_modes(0.1, 0.2) else {
+            unreachable!("modes")
+        };
+        let Some(md) = modal_data(&m, &pm) else {
+            unreachable!("two modes")
+        };
+        let mass = m.layers.bare().rho_a * 0.7;
+        let u = ModalData::uniform(mass, 0.7, md.omega, md.zeta);
+        assert!((md.mass_integral - u.mass_integral).norm() < 1e-9);
+        assert!((md.moment_integral - u.moment_integral).norm() < 1e-9);
+        assert!((md.tip - u.tip).norm() < 1e-8);
+    }
+}
