@@ -79,15 +79,10 @@ pub fn piezo_fragment(model: &DesignModel, opt: &Optimum, arm: &ArmParams<f64>) 
     );
     let ints = integrals(model, pm);
     let omega = pm.omega();
-    let hz: Vec<f64> = omega
-        .iter()
-        .map(|w| w / std::f64::consts::TAU)
-        .collect();
+    let hz: Vec<f64> = omega.iter().map(|w| w / std::f64::consts::TAU).collect();
     let c_a: Vec<f64> = pm.slope_diff.iter().map(|d| d * pm.k_a).collect();
     let col = |f: fn(&(f64, f64, f64)) -> f64| ints.iter().map(f).collect::<Vec<f64>>();
-    let beam_mass = model
-        .beam(opt.x_a, opt.l_a)
-        .map_or(f64::NAN, |b| b.mass());
+    let beam_mass = model.beam(opt.x_a, opt.l_a).map_or(f64::NAN, |b| b.mass());
     format!(
         "# Piezo patch chosen by `flexarm-sim optimize` (flexarm-beam). Keys: docs/optimization.md.\n\
          [piezo]\n\

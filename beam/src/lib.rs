@@ -5,11 +5,13 @@
 //! dissipated energy (Eqs. 21–33), and the placement optimization (Eqs. 34–35).
 //! `docs/optimization.md` states every choice made where the paper is silent.
 
+pub mod cli;
 pub mod config;
 pub mod design;
 pub mod fem;
 pub mod fragment;
 pub mod lyapunov;
 pub mod optimize;
+pub mod plot;
 pub mod section;
 pub mod segmented;
