@@ -198,16 +198,41 @@ pub fn run_optimize(
                 out.push_str(&row(&format!("β_c = {b}"), &r));
             }
         }
+        for &km in &sc.k_max {
+            // The same grid with the gains above K_max dropped, and a refinement bounded by it.
+            let keep: Vec<usize> = (0..s.gains.len()).filter(|&k| s.gains[k] <= km).collect();
+            if keep.is_empty() {
+                continue;
+            }
+            let sub = Sweep {
+                gains: keep.iter().map(|&k| s.gains[k]).collect(),
+                points: s
+                    .points
+                    .iter()
+                    .map(|p| crate::optimize::GridPoint {
+                        j0: keep.iter().map(|&k| p.j0[k]).collect(),
+                        ..p.clone()
+                    })
+                    .collect(),
+            };
+            let mut c = cfg.clone();
+            c.optimize.k_max = km;
+            if let Ok(r) = optimum(&model, &w, &sub, &c) {
+                out.push_str(&row(&format!("K_max = {km} s"), &r));
+            }
+        }
+        // The normalized objective: J0/W0 is a share in [0, 1], so its weights live on another
+        // scale; β_c = 0 here (any β_c ≳ 1e-3 would just pin the gain to its lower bound).
         for obj in [Objective::Paper, Objective::Fraction] {
             if obj != w.objective {
-                for a in [0.0, w.alpha] {
+                for a in [0.0, 0.3, 1.0] {
                     let wv = Weights {
                         objective: obj,
                         alpha: a,
-                        ..w
+                        beta_c: 0.0,
                     };
                     if let Ok(r) = optimum(&model, &wv, &s, &cfg) {
-                        out.push_str(&row(&format!("objective {obj:?}, α = {a}"), &r));
+                        out.push_str(&row(&format!("objective {obj:?}, α = {a}, β_c = 0"), &r));
                     }
                 }
             }

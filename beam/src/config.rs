@@ -162,6 +162,8 @@ pub struct SensitivityConfig {
     pub beta_c: Vec<f64>,
     /// Beam densities to try [kg/m³].
     pub rho_b: Vec<f64>,
+    /// Gain limits `K_max` to try [s].
+    pub k_max: Vec<f64>,
 }
 
 impl Default for SensitivityConfig {
@@ -173,6 +175,7 @@ impl Default for SensitivityConfig {
             // Aluminium; and the density that gives the paper's m2 = 0.3 kg over 0.7 m with
             // the printed 25 mm × 0.8 mm section.
             rho_b: vec![2700.0, 0.3 / (0.7 * 25e-3 * 0.8e-3)],
+            k_max: vec![30.0, 100.0],
         }
     }
 }
@@ -313,6 +316,9 @@ impl Config {
         }
         for v in &s.rho_b {
             positive("sensitivity.rho_b[]", *v)?;
+        }
+        for v in &s.k_max {
+            positive("sensitivity.k_max[]", *v)?;
         }
         Ok(())
     }

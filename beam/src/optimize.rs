@@ -234,12 +234,12 @@ pub fn refine(
                 } else {
                     evaluate(model, w, x, l, lk.exp())
                 };
-                if let Some(c) = cand {
-                    if c.j < best.j {
-                        best = c;
-                        u = [x, l, lk];
-                        improved = true;
-                    }
+                if let Some(c) = cand
+                    && c.j < best.j
+                {
+                    best = c;
+                    u = [x, l, lk];
+                    improved = true;
                 }
             }
         }
@@ -288,15 +288,17 @@ mod tests {
         // A local minimum: small moves do not improve it.
         for (dx, dl) in [(1e-3, 0.0), (-1e-3, 0.0), (0.0, 1e-3), (0.0, -1e-3)] {
             let (x, l) = (r.x_a + dx, r.l_a + dl);
-            if m.feasible(x, l) && x >= 0.0 && l >= 0.01 {
-                if let Some(e) = evaluate(&m, &w, x, l, r.k_c) {
-                    assert!(
-                        e.j >= r.j - 1e-9 * r.j.abs(),
-                        "{dx} {dl}: {} < {}",
-                        e.j,
-                        r.j
-                    );
-                }
+            if m.feasible(x, l)
+                && x >= 0.0
+                && l >= 0.01
+                && let Some(e) = evaluate(&m, &w, x, l, r.k_c)
+            {
+                assert!(
+                    e.j >= r.j - 1e-9 * r.j.abs(),
+                    "{dx} {dl}: {} < {}",
+                    e.j,
+                    r.j
+                );
             }
         }
     }

@@ -7,6 +7,8 @@ use std::error::Error;
 use std::path::Path;
 
 type R = Result<(), Box<dyn Error>>;
+/// A named curve with its style.
+type Curve<S> = (String, Vec<(f64, f64)>, S);
 
 /// A viridis-like colour map on `t ∈ [0, 1]`.
 fn colour(t: f64) -> RGBColor {
@@ -103,11 +105,12 @@ pub fn heat_map(
         .margin_top(45)
         .margin_bottom(57)
         .margin_right(10)
-        .y_label_area_size(75)
+        .y_label_area_size(80)
         .build_cartesian_2d(0.0..1.0, lo..lo + span)?;
     bar.configure_mesh()
         .disable_mesh()
         .disable_x_axis()
+        .y_label_style(("sans-serif", 13))
         .y_desc("J")
         .y_label_formatter(&|v| format!("{v:.3e}"))
         .draw()?;
@@ -135,7 +138,7 @@ pub fn gain_curves(
         .map(|i| k_range.0 * (k_range.1 / k_range.0).powf(i as f64 / 200.0))
         .collect();
     let paper = model.patch_modes(0.09, 0.35).ok();
-    let mut series: Vec<(String, Vec<(f64, f64)>, RGBColor)> = Vec::new();
+    let mut series: Vec<Curve<RGBColor>> = Vec::new();
     for (name, pm, col) in [
         ("optimum patch", Some(&opt.modes), BLUE),
         ("paper patch (0.09, 0.35)", paper.as_ref(), RED),
@@ -208,7 +211,7 @@ pub fn mode_shapes(path: &Path, model: &DesignModel, opt: &Optimum) -> R {
     let xs: Vec<f64> = (0..=n)
         .map(|i| model.length * i as f64 / n as f64)
         .collect();
-    let mut series: Vec<(String, Vec<(f64, f64)>, ShapeStyle)> = Vec::new();
+    let mut series: Vec<Curve<ShapeStyle>> = Vec::new();
     let cols = [BLUE, RED, GREEN, MAGENTA];
     for (j, m) in opt.modes.modes.iter().enumerate() {
         let c = cols[j % 4];
