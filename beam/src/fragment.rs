@@ -11,6 +11,7 @@
 //! | `piezo.k_a` | N·m/V | actuator moment per volt |
 //! | `piezo.k_s` | V/rad | film volts per radian of slope difference |
 //! | `piezo.c_s` | V²/(N·m) | `k_s / k_a` (Eq. 19) |
+//! | `piezo.k_c_paper_modes` | s | the gain that gives mode 1 of the paper's modes (uniform shapes of the arm's `m2`, `a2`, `ω1 = 2π·4.716`) the same control damping ratio `k_c k_s k_a Δφ'₁² / (2 ω₁)` as `k_c` gives the design beam |
 //! | `piezo.modes` | – | `"paper"` (default): the controller and plant keep the paper's frequencies and uniform-link shapes; `"computed"`: use `[piezo.computed]` |
 //! | `piezo.slope_diff` | 1/(m·√kg) | `Δφ'` of the uniform arm shapes (`m2`, `a2` of the arm), used with `modes = "paper"` |
 //! | `piezo.computed.omega` | rad/s | frequencies of the patched design beam |
@@ -82,6 +83,13 @@ pub fn piezo_fragment(model: &DesignModel, opt: &Optimum, arm: &ArmParams<f64>) 
     let hz: Vec<f64> = omega.iter().map(|w| w / std::f64::consts::TAU).collect();
     let c_a: Vec<f64> = pm.slope_diff.iter().map(|d| d * pm.k_a).collect();
     let col = |f: fn(&(f64, f64, f64)) -> f64| ints.iter().map(f).collect::<Vec<f64>>();
+    // Same control-added damping ratio of mode 1 on the paper's modes.
+    let k_c_paper = {
+        let d = pm.slope_diff.first().copied().unwrap_or(f64::NAN);
+        let w = pm.modes.first().map_or(f64::NAN, |m| m.omega);
+        let du = uniform.slope_diff.x;
+        opt.k_c * (d * d / w) / (du * du / arm.modes.omega.x)
+    };
     let beam_mass = model.beam(opt.x_a, opt.l_a).map_or(f64::NAN, |b| b.mass());
     format!(
         "# Piezo patch chosen by `flexarm-sim optimize` (flexarm-beam). Keys: docs/optimization.md.\n\
@@ -92,6 +100,7 @@ pub fn piezo_fragment(model: &DesignModel, opt: &Optimum, arm: &ArmParams<f64>) 
          k_a = {:?}   # actuator moment per volt [N m/V]\n\
          k_s = {:?}   # film volts per radian of slope difference [V/rad]\n\
          c_s = {:?}   # k_s / k_a (Eq. 19) [V^2/(N m)]\n\
+         k_c_paper_modes = {:?}   # gain giving the paper's mode 1 the same control damping ratio [s]\n\
          modes = \"paper\"   # \"paper\": paper's frequencies, uniform shapes; \"computed\": [piezo.computed]\n\
          slope_diff = {}   # delta phi' of the uniform arm shapes (m2 = {:?} kg, a2 = {:?} m) [1/(m sqrt(kg))]\n\
          \n\
@@ -111,6 +120,7 @@ pub fn piezo_fragment(model: &DesignModel, opt: &Optimum, arm: &ArmParams<f64>) 
         pm.k_a,
         pm.k_s,
         pm.k_s / pm.k_a,
+        k_c_paper,
         list(&[uniform.slope_diff.x, uniform.slope_diff.y]),
         arm.m2,
         arm.a2,
@@ -148,8 +158,20 @@ mod tests {
         assert_eq!(get("x_a"), Some(0.09));
         assert_eq!(get("l_a"), Some(0.35));
         assert_eq!(get("k_c"), Some(30.0));
-        // The uniform slope differences are the core's for the paper's patch.
+        // Equal control damping ratio of mode 1 on both mode sets.
+        let arm = ArmParams::<f64>::default();
         let core = PiezoPatch::<f64>::paper();
+        let kp = get("k_c_paper_modes").unwrap_or(f64::NAN);
+        let zeta_arm =
+            kp * core.k_s * core.k_a * core.slope_diff.x.powi(2) / (2.0 * arm.modes.omega.x);
+        let pm = &opt.modes;
+        let zeta_design =
+            30.0 * pm.k_s * pm.k_a * pm.slope_diff[0].powi(2) / (2.0 * pm.modes[0].omega);
+        assert!(
+            (zeta_arm / zeta_design - 1.0).abs() < 1e-12,
+            "{zeta_arm} {zeta_design}"
+        );
+        // The uniform slope differences are the core's for the paper's patch.
         let sd = p
             .and_then(|p| p.get("slope_diff"))
             .and_then(|v| v.as_array())
