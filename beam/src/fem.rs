@@ -179,4 +179,49 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn bracketing_never_skips_a_root() {
+        // High-contrast patches (a 3 mm ceramic: EI × 60, ρA × 13), a tip mass ten times the
+        // beam's and a rotary inertia, over a spread of patches: the exact solver's first four
+        // frequencies must be the FEM's first four, in order (a skipped pair of roots would
+        // shift the list).
+        let mut layers = Layers::default();
+        layers.material.t_c = 3e-3;
+        let (b, p) = (layers.bare(), layers.patched());
+        let seg = |len: f64, s: crate::section::Section| Segment {
+            length: len,
+            ei: s.ei,
+            rho_a: s.rho_a,
+        };
+        let beam_mass = b.rho_a * 0.7;
+        for (k, &(x_a, l_a)) in [
+            (0.0, 0.05),
+            (0.0, 0.7),
+            (0.3, 0.01),
+            (0.1, 0.5),
+            (0.6, 0.1),
+            (0.33, 0.21),
+        ]
+        .iter()
+        .enumerate()
+        {
+            let (tm, tj) = if k % 2 == 0 {
+                (10.0 * beam_mass, 0.0)
+            } else {
+                (0.0, 1e-4)
+            };
+            let segs = [seg(x_a, b), seg(l_a, p), seg(0.7 - x_a - l_a, b)];
+            let exact = SegmentedBeam::new(&segs, tm, tj)
+                .and_then(|bm| bm.frequencies(4))
+                .unwrap_or_default();
+            let Ok(fem) = fem_modes(&segs, tm, tj, 56, 4) else {
+                unreachable!("FEM failed")
+            };
+            assert_eq!(exact.len(), 4);
+            for (e, f) in exact.iter().zip(&fem.omega) {
+                assert!((f / e - 1.0).abs() < 1e-4, "({x_a}, {l_a}): {e} vs {f}");
+            }
+        }
+    }
 }

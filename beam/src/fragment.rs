@@ -63,6 +63,21 @@ pub fn modal_data(model: &DesignModel, pm: &PatchModes) -> Option<ModalData<f64>
     })
 }
 
+/// The patch in the core's form with the computed slope differences (needs two modes), for a
+/// simulation that uses the computed modes.
+pub fn core_patch(pm: &PatchModes) -> Option<PiezoPatch<f64>> {
+    match pm.slope_diff.as_slice() {
+        [a, b] => Some(PiezoPatch {
+            x_a: pm.x_a,
+            l_a: pm.l_a,
+            slope_diff: Vector2::new(*a, *b),
+            k_a: pm.k_a,
+            k_s: pm.k_s,
+        }),
+        _ => None,
+    }
+}
+
 fn list(v: &[f64]) -> String {
     let items: Vec<String> = v.iter().map(|x| format!("{x:?}")).collect();
     format!("[{}]", items.join(", "))
@@ -184,6 +199,25 @@ mod tests {
             .and_then(|v| v.as_array())
             .map(|a| a.len());
         assert_eq!(c, Some(2));
+    }
+
+    #[test]
+    fn core_patch_reproduces_the_modal_damping() {
+        let m = DesignModel::default();
+        let Ok(pm) = m.patch_modes(0.2, 0.3) else {
+            unreachable!("modes")
+        };
+        let Some(cp) = core_patch(&pm) else {
+            unreachable!("two modes")
+        };
+        // k_c c_s C_a C_aᵀ from the core equals the Q block the optimizer uses.
+        let (_, q, _) = m.loop_matrices(&pm, 7.0);
+        let ca = cp.c_a();
+        let g = 7.0 * cp.c_s();
+        for (i, j) in [(0, 0), (0, 1), (1, 1)] {
+            let core = g * ca[i] * ca[j];
+            assert!((core - q[(2 + i, 2 + j)]).abs() <= 1e-12 * core.abs().max(1e-300));
+        }
     }
 
     #[test]
