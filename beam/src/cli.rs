@@ -5,7 +5,7 @@
 //!   slope differences;
 //! - `summary.md`: the text this function returns;
 //! - `piezo.toml`: the chosen patch as a `[piezo]` fragment (see [`crate::fragment`]);
-//! - with `plots`: `heatmap.svg`, `gain.svg`, `modes.svg`.
+//! - with `plots`: `heatmap.svg` (`J`), `heatmap_share.svg` (`J0/W0`), `gain.svg`, `modes.svg`.
 
 use crate::config::Config;
 use crate::design::{DesignModel, Normalization, Objective, Weights};
@@ -308,10 +308,26 @@ pub fn run_optimize(
     )?;
     if plots {
         let kmin = o.k_c.iter().copied().fold(f64::INFINITY, f64::min);
+        let j: Vec<f64> = bpp.iter().map(|b| b.1).collect();
         plot::heat_map(
             &out_dir.join("heatmap.svg"),
             &s,
-            &w,
+            &j,
+            "J = α l_a² + β_c k_c − J0 (best k_c per patch)",
+            o.step,
+            model.length,
+            &best,
+        )?;
+        let share: Vec<f64> = s
+            .points
+            .iter()
+            .map(|p| p.j0.iter().fold(f64::NAN, |m, j| m.max(j / p.w0)))
+            .collect();
+        plot::heat_map(
+            &out_dir.join("heatmap_share.svg"),
+            &s,
+            &share,
+            "J0/W0: share of the initial energy removed (best k_c per patch)",
             o.step,
             model.length,
             &best,
@@ -330,7 +346,7 @@ pub fn run_optimize(
         "\nWrote {}: grid.csv, piezo.toml, summary.md{}.",
         out_dir.display(),
         if plots {
-            ", heatmap.svg, gain.svg, modes.svg"
+            ", heatmap.svg, heatmap_share.svg, gain.svg, modes.svg"
         } else {
             ""
         }

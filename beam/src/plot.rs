@@ -32,33 +32,30 @@ fn colour(t: f64) -> RGBColor {
     RGBColor(lerp(a.0, b.0), lerp(a.1, b.1), lerp(a.2, b.2))
 }
 
-/// Heat map of `J` (minimized over the grid's gains) over `(x_a, l_a)`, with the optimum
-/// (cross) and the paper's point (circle).
+/// Heat map of one value per grid patch over `(x_a, l_a)`, with the optimum (cross) and the
+/// paper's point (circle).
 pub fn heat_map(
     path: &Path,
     sweep: &Sweep,
-    w: &Weights,
+    values: &[f64],
+    title: &str,
     step: f64,
     length: f64,
     opt: &Optimum,
 ) -> R {
-    let best = sweep.best_per_point(w);
-    let (lo, hi) = best
+    let (lo, hi) = values
         .iter()
-        .filter(|b| b.1.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), b| {
-            (l.min(b.1), h.max(b.1))
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+            (l.min(*v), h.max(*v))
         });
     let span = if hi > lo { hi - lo } else { 1.0 };
     let root = SVGBackend::new(path, (900, 720)).into_drawing_area();
     root.fill(&WHITE)?;
-    let (left, right) = root.split_horizontally(770);
+    let (left, right) = root.split_horizontally(750);
     let h2 = step / 2.0;
     let mut chart = ChartBuilder::on(&left)
-        .caption(
-            "J = α l_a² + β_c k_c − J0 (best k_c per patch)",
-            ("sans-serif", 22),
-        )
+        .caption(title, ("sans-serif", 22))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(60)
@@ -69,10 +66,10 @@ pub fn heat_map(
         .x_desc("x_a [m]")
         .y_desc("l_a [m]")
         .draw()?;
-    chart.draw_series(sweep.points.iter().zip(&best).map(|(p, b)| {
+    chart.draw_series(sweep.points.iter().zip(values).map(|(p, v)| {
         Rectangle::new(
             [(p.x_a - h2, p.l_a - h2), (p.x_a + h2, p.l_a + h2)],
-            colour((b.1 - lo) / span).filled(),
+            colour((v - lo) / span).filled(),
         )
     }))?;
     chart
@@ -105,14 +102,21 @@ pub fn heat_map(
         .margin_top(45)
         .margin_bottom(57)
         .margin_right(10)
-        .y_label_area_size(80)
+        .y_label_area_size(95)
         .build_cartesian_2d(0.0..1.0, lo..lo + span)?;
     bar.configure_mesh()
         .disable_mesh()
         .disable_x_axis()
         .y_label_style(("sans-serif", 13))
-        .y_desc("J")
-        .y_label_formatter(&|v| format!("{v:.3e}"))
+        // Trailing spaces: the SVG text is laid out from an estimated width, and real fonts are
+        // wider, so the label would run under the bar.
+        .y_label_formatter(&|v| {
+            if v.abs() >= 1e4 || (v.abs() < 1e-2 && *v != 0.0) {
+                format!("{v:.1e}   ")
+            } else {
+                format!("{v:.3}   ")
+            }
+        })
         .draw()?;
     let n = 100;
     bar.draw_series((0..n).map(|i| {
