@@ -24,6 +24,7 @@
 //! | `piezo.computed.tip` | 1/√kg | `φ(a2)` |
 //! | `piezo.computed.beam_mass` | kg | mass of the design beam with the patch |
 
+use crate::config::ConfigError;
 use crate::design::{DesignModel, PatchModes};
 use crate::optimize::Optimum;
 use flexarm_core::Vector2;
@@ -151,6 +152,146 @@ pub fn piezo_fragment(model: &DesignModel, opt: &Optimum, arm: &ArmParams<f64>) 
     )
 }
 
+/// Which modal data a scenario's `[piezo]` table selects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModesChoice {
+    /// The paper's frequencies with uniform-link shapes (the controller's default).
+    #[default]
+    Paper,
+    /// The segmented design beam's modes from `[piezo.computed]`.
+    Computed,
+}
+
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Computed {
+    omega: [f64; 2],
+    #[serde(default)]
+    frequency_hz: Option<[f64; 2]>,
+    zeta: [f64; 2],
+    slope_diff: [f64; 2],
+    #[serde(default)]
+    c_a: Option<[f64; 2]>,
+    mass_integral: [f64; 2],
+    moment_integral: [f64; 2],
+    tip: [f64; 2],
+    #[serde(default)]
+    beam_mass: Option<f64>,
+}
+
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Section {
+    x_a: f64,
+    l_a: f64,
+    k_c: f64,
+    k_a: f64,
+    k_s: f64,
+    #[serde(default)]
+    c_s: Option<f64>,
+    #[serde(default)]
+    k_c_paper_modes: Option<f64>,
+    #[serde(default)]
+    modes: ModesChoice,
+    slope_diff: [f64; 2],
+    #[serde(default)]
+    computed: Option<Computed>,
+}
+
+/// A `[piezo]` table read back into the core's types.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PiezoChoice {
+    /// The patch with the slope differences of the selected mode set.
+    pub patch: PiezoPatch<f64>,
+    /// The rate-feedback gain `k_c` [s] as written (for the design beam).
+    pub k_c: f64,
+    /// `k_c_paper_modes` [s] if present.
+    pub k_c_paper_modes: Option<f64>,
+    /// Which mode set was selected.
+    pub modes: ModesChoice,
+    /// The computed modal data when `modes = "computed"` (replace `ArmParams::modes` with it).
+    pub modal_data: Option<ModalData<f64>>,
+}
+
+/// Reads the `[piezo]` table of a TOML document (a scenario file or the fragment alone) and
+/// checks it against link 2 of length `a2` [m]. Errors name the key.
+pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
+    let doc: toml::Table = toml::from_str(text).map_err(|e| ConfigError(e.to_string()))?;
+    let table = doc
+        .get("piezo")
+        .cloned()
+        .ok_or_else(|| ConfigError("no [piezo] table".into()))?;
+    let s: Section = table
+        .try_into()
+        .map_err(|e: toml::de::Error| ConfigError(format!("[piezo]: {e}")))?;
+    let fin = |name: &str, v: f64| {
+        if v.is_finite() {
+            Ok(())
+        } else {
+            Err(ConfigError(format!("`piezo.{name}` = {v} is not finite")))
+        }
+    };
+    for (n, v) in [
+        ("x_a", s.x_a),
+        ("l_a", s.l_a),
+        ("k_c", s.k_c),
+        ("k_a", s.k_a),
+        ("k_s", s.k_s),
+    ] {
+        fin(n, v)?;
+    }
+    if !(s.x_a >= 0.0 && s.l_a > 0.0 && s.x_a + s.l_a <= a2 + 1e-9) {
+        return Err(ConfigError(format!(
+            "`piezo.x_a` = {}, `piezo.l_a` = {}: the patch must lie on link 2 (0 <= x_a, 0 < l_a, x_a + l_a <= {a2})",
+            s.x_a, s.l_a
+        )));
+    }
+    for (n, v) in [("k_c", s.k_c), ("k_a", s.k_a), ("k_s", s.k_s)] {
+        if v <= 0.0 {
+            return Err(ConfigError(format!("`piezo.{n}` = {v} must be > 0")));
+        }
+    }
+    let (slope, modal_data) = match s.modes {
+        ModesChoice::Paper => (s.slope_diff, None),
+        ModesChoice::Computed => {
+            let c = s.computed.as_ref().ok_or_else(|| {
+                ConfigError("`piezo.modes = \"computed\"` needs a [piezo.computed] table".into())
+            })?;
+            let v = |a: [f64; 2]| Vector2::new(a[0], a[1]);
+            let md = ModalData {
+                omega: v(c.omega),
+                zeta: v(c.zeta),
+                mass_integral: v(c.mass_integral),
+                moment_integral: v(c.moment_integral),
+                tip: v(c.tip),
+            };
+            if !(c.omega[0] > 0.0 && c.omega[0] < c.omega[1]) {
+                return Err(ConfigError(
+                    "`piezo.computed.omega` must be positive and increasing".into(),
+                ));
+            }
+            (c.slope_diff, Some(md))
+        }
+    };
+    for (i, v) in slope.iter().enumerate() {
+        fin(&format!("slope_diff[{i}]"), *v)?;
+    }
+    Ok(PiezoChoice {
+        patch: PiezoPatch {
+            x_a: s.x_a,
+            l_a: s.l_a,
+            slope_diff: Vector2::new(slope[0], slope[1]),
+            k_a: s.k_a,
+            k_s: s.k_s,
+        },
+        k_c: s.k_c,
+        k_c_paper_modes: s.k_c_paper_modes,
+        modes: s.modes,
+        modal_data,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -237,5 +378,63 @@ mod tests {
         assert!((md.mass_integral - u.mass_integral).norm() < 1e-9);
         assert!((md.moment_integral - u.moment_integral).norm() < 1e-9);
         assert!((md.tip - u.tip).norm() < 1e-8);
+    }
+
+    #[test]
+    fn fragment_reads_back_into_core_types() {
+        let m = DesignModel::default();
+        let Some(opt) = evaluate(&m, &Weights::default(), 0.12, 0.3, 40.0) else {
+            unreachable!("feasible")
+        };
+        let arm = ArmParams::<f64>::default();
+        let text = piezo_fragment(&m, &opt, &arm);
+        // Default: the paper's modes, the core's uniform patch.
+        let Ok(p) = read_piezo(&text, arm.a2) else {
+            unreachable!("valid fragment")
+        };
+        assert_eq!(p.modes, ModesChoice::Paper);
+        assert!(p.modal_data.is_none());
+        let u = PiezoPatch::uniform(&m.layers.material, arm.m2, arm.a2, 0.12, 0.3);
+        assert_eq!(p.patch, u);
+        assert_eq!(p.k_c, 40.0);
+        // Switched to the computed modes.
+        let text = text.replace("modes = \"paper\"", "modes = \"computed\"");
+        let Ok(c) = read_piezo(&text, arm.a2) else {
+            unreachable!("valid fragment")
+        };
+        assert_eq!(Some(c.patch), core_patch(&opt.modes));
+        assert_eq!(c.modal_data, modal_data(&m, &opt.modes));
+        // Inside a larger scenario file, after other tables.
+        let scenario = format!("[arm]\nm2 = 0.3\n\n{text}");
+        assert!(read_piezo(&scenario, arm.a2).is_ok());
+    }
+
+    #[test]
+    fn bad_piezo_tables_are_readable_errors() {
+        for (text, needle) in [
+            ("[arm]\nm2 = 1.0", "no [piezo]"),
+            (
+                "[piezo]\nx_a = 0.5\nl_a = 0.3\nk_c = 1.0\nk_a = 1.0\nk_s = 1.0\nslope_diff = [1.0, 2.0]",
+                "lie on link 2",
+            ),
+            (
+                "[piezo]\nx_a = 0.1\nl_a = 0.3\nk_c = -1.0\nk_a = 1.0\nk_s = 1.0\nslope_diff = [1.0, 2.0]",
+                "piezo.k_c",
+            ),
+            (
+                "[piezo]\nx_a = 0.1\nl_a = 0.3\nk_c = 1.0\nk_a = 1.0\nk_s = 1.0\nslope_diff = [1.0, 2.0]\nmodes = \"computed\"",
+                "[piezo.computed]",
+            ),
+            ("[piezo]\nx_a = 0.1", "missing field"),
+            (
+                "[piezo]\nx_a = 0.1\nl_a = 0.3\nk_c = 1.0\nk_a = 1.0\nk_s = 1.0\nslope_diff = [1.0]",
+                "slope_diff",
+            ),
+        ] {
+            match read_piezo(text, 0.7) {
+                Ok(_) => unreachable!("accepted: {text}"),
+                Err(e) => assert!(e.to_string().contains(needle), "{text}: {e}"),
+            }
+        }
     }
 }
