@@ -252,6 +252,41 @@ pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
             return Err(ConfigError(format!("`piezo.{n}` = {v} must be > 0")));
         }
     }
+    // Derived keys, when present, must agree with the ones they derive from (a hand-edited
+    // fragment that changed one and not the other is refused).
+    let agree = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+    if let Some(c_s) = s.c_s
+        && !agree(c_s, s.k_s / s.k_a)
+    {
+        return Err(ConfigError(format!(
+            "`piezo.c_s` = {c_s} disagrees with k_s / k_a = {}",
+            s.k_s / s.k_a
+        )));
+    }
+    if let Some(c) = &s.computed {
+        let tau = std::f64::consts::TAU;
+        if let Some(f) = c.frequency_hz
+            && !(agree(f[0] * tau, c.omega[0]) && agree(f[1] * tau, c.omega[1]))
+        {
+            return Err(ConfigError(
+                "`piezo.computed.frequency_hz` disagrees with `omega`".into(),
+            ));
+        }
+        if let Some(ca) = c.c_a
+            && !(agree(ca[0], s.k_a * c.slope_diff[0]) && agree(ca[1], s.k_a * c.slope_diff[1]))
+        {
+            return Err(ConfigError(
+                "`piezo.computed.c_a` disagrees with k_a * slope_diff".into(),
+            ));
+        }
+        if let Some(m) = c.beam_mass
+            && !(m.is_finite() && m > 0.0)
+        {
+            return Err(ConfigError(format!(
+                "`piezo.computed.beam_mass` = {m} must be > 0"
+            )));
+        }
+    }
     let (slope, modal_data) = match s.modes {
         ModesChoice::Paper => (s.slope_diff, None),
         ModesChoice::Computed => {
@@ -426,6 +461,10 @@ mod tests {
                 "[piezo.computed]",
             ),
             ("[piezo]\nx_a = 0.1", "missing field"),
+            (
+                "[piezo]\nx_a = 0.1\nl_a = 0.3\nk_c = 1.0\nk_a = 1.0\nk_s = 2.0\nc_s = 3.0\nslope_diff = [1.0, 2.0]",
+                "piezo.c_s",
+            ),
             (
                 "[piezo]\nx_a = 0.1\nl_a = 0.3\nk_c = 1.0\nk_a = 1.0\nk_s = 1.0\nslope_diff = [1.0]",
                 "slope_diff",
