@@ -375,10 +375,27 @@ mod tests {
     }
 
     #[test]
-    fn example_file_parses() {
+    fn example_file_states_the_defaults() {
+        // The example documents every key with its default: it must stay equal to them.
         let text = include_str!("../examples/optimize.toml");
-        let c = Config::from_toml(text);
-        assert!(c.is_ok(), "{c:?}");
+        let Ok(c) = Config::from_toml(text) else {
+            unreachable!("example does not parse")
+        };
+        let d = Config::default();
+        assert_eq!(c.beam, d.beam);
+        // 380 pF/cm² is 3.8e-6 F/m² up to the last bit of the core's `380e-12 / 1e-4`.
+        assert!((c.piezo.c_area / d.piezo.c_area - 1.0).abs() < 1e-12);
+        let p = PiezoConfig {
+            c_area: d.piezo.c_area,
+            ..c.piezo.clone()
+        };
+        assert_eq!(p, d.piezo);
+        assert_eq!(c.optimize, d.optimize);
+        assert_eq!(c.sensitivity.alpha, d.sensitivity.alpha);
+        assert_eq!(c.sensitivity.k_max, d.sensitivity.k_max);
+        for (a, b) in c.sensitivity.rho_b.iter().zip(&d.sensitivity.rho_b) {
+            assert!((a / b - 1.0).abs() < 1e-12);
+        }
     }
 
     #[test]
