@@ -245,6 +245,17 @@ pub fn run_optimize(
                 variants.push((format!("ρ_b = {rho:.0} kg/m³"), m));
             }
         }
+        for &tm in &sc.tip_mass {
+            if tm != model.tip_mass {
+                variants.push((
+                    format!("tip mass {tm} kg"),
+                    DesignModel {
+                        tip_mass: tm,
+                        ..model.clone()
+                    },
+                ));
+            }
+        }
         for n in [
             Normalization::UnitModalMass,
             Normalization::UnitTip,

@@ -164,6 +164,8 @@ pub struct SensitivityConfig {
     pub rho_b: Vec<f64>,
     /// Gain limits `K_max` to try [s].
     pub k_max: Vec<f64>,
+    /// Tip masses to try [kg].
+    pub tip_mass: Vec<f64>,
 }
 
 impl Default for SensitivityConfig {
@@ -176,6 +178,8 @@ impl Default for SensitivityConfig {
             // the printed 25 mm × 0.8 mm section.
             rho_b: vec![2700.0, 0.3 / (0.7 * 25e-3 * 0.8e-3)],
             k_max: vec![30.0, 100.0],
+            // The bare beam's own mass (0.0378 kg) and a 0.1 kg payload.
+            tip_mass: vec![0.0378, 0.1],
         }
     }
 }
@@ -320,6 +324,9 @@ impl Config {
         for v in &s.k_max {
             positive("sensitivity.k_max[]", *v)?;
         }
+        for v in &s.tip_mass {
+            non_negative("sensitivity.tip_mass[]", *v)?;
+        }
         Ok(())
     }
 
@@ -393,6 +400,7 @@ mod tests {
         assert_eq!(c.optimize, d.optimize);
         assert_eq!(c.sensitivity.alpha, d.sensitivity.alpha);
         assert_eq!(c.sensitivity.k_max, d.sensitivity.k_max);
+        assert_eq!(c.sensitivity.tip_mass, d.sensitivity.tip_mass);
         for (a, b) in c.sensitivity.rho_b.iter().zip(&d.sensitivity.rho_b) {
             assert!((a / b - 1.0).abs() < 1e-12);
         }

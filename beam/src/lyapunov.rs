@@ -2,36 +2,42 @@
 //!
 //! For `ż = H z` the quadratic cost `∫₀^∞ zᵀ Q z dt = z₀ᵀ P z₀` holds with
 //! `Hᵀ P + P H = −Q` (the paper prints `H P + P H = −Q`, which is a different equation unless
-//! `H` is symmetric: notes §3). Solved here as a dense linear system in `vec(P)`:
-//! `(I ⊗ Hᵀ + Hᵀ ⊗ I) vec(P) = −vec(Q)` (column-major `vec`), an `n² × n²` LU solve, 16 × 16
-//! for two modes. The result is symmetrized (it is symmetric in exact arithmetic).
+//! `H` is symmetric: notes §3). Solved here as a dense linear system: the Kronecker form
+//! `(I ⊗ Hᵀ + Hᵀ ⊗ I) vec(P) = −vec(Q)` restricted to the `n(n+1)/2` unknowns `p_ij, i ≤ j` of
+//! the symmetric `P` (valid for symmetric `Q`, which makes `P` symmetric), one equation per
+//! `i ≤ j`: a 10 × 10 LU solve for two modes instead of 16 × 16.
 
 use nalgebra::DMatrix;
 
-/// Solves `Hᵀ P + P H = −Q`. `None` if the Kronecker operator is singular, which happens
-/// exactly when `H` has two eigenvalues summing to zero (for instance an undamped mode).
+/// Solves `Hᵀ P + P H = −Q` for symmetric `Q` (an asymmetric `Q` is replaced by its symmetric
+/// part, which gives the same quadratic form). `None` if the operator is singular, which
+/// happens exactly when `H` has two eigenvalues summing to zero (for instance an undamped mode).
 pub fn solve_lyapunov(h: &DMatrix<f64>, q: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     let n = h.nrows();
     if h.ncols() != n || q.nrows() != n || q.ncols() != n {
         return None;
     }
-    let nn = n * n;
-    let mut a = DMatrix::<f64>::zeros(nn, nn);
-    // vec index of P[(i, j)] is i + n j.
-    // (Hᵀ P)[(i, j)] = Σ_k H[(k, i)] P[(k, j)];  (P H)[(i, j)] = Σ_k P[(i, k)] H[(k, j)].
-    for j in 0..n {
-        for i in 0..n {
-            let row = i + n * j;
+    // Unknown p_ij (i ≤ j) at index idx(i, j); P[(k, l)] = p[idx(min, max)].
+    let idx = |i: usize, j: usize| {
+        let (a, b) = if i <= j { (i, j) } else { (j, i) };
+        a * n - a * (a + 1) / 2 + b
+    };
+    let m = n * (n + 1) / 2;
+    let mut a = DMatrix::<f64>::zeros(m, m);
+    let mut rhs = DMatrix::<f64>::zeros(m, 1);
+    // (Hᵀ P + P H)[(i, j)] = Σ_k H[(k, i)] P[(k, j)] + Σ_k P[(i, k)] H[(k, j)] = −Q[(i, j)].
+    for i in 0..n {
+        for j in i..n {
+            let row = idx(i, j);
             for k in 0..n {
-                a[(row, k + n * j)] += h[(k, i)];
-                a[(row, i + n * k)] += h[(k, j)];
+                a[(row, idx(k, j))] += h[(k, i)];
+                a[(row, idx(i, k))] += h[(k, j)];
             }
+            rhs[(row, 0)] = -0.5 * (q[(i, j)] + q[(j, i)]);
         }
     }
-    let b = DMatrix::from_iterator(nn, 1, q.iter().map(|x| -x));
-    let x = a.lu().solve(&b)?;
-    let p = DMatrix::from_iterator(n, n, x.iter().copied());
-    let p = (&p + p.transpose()) * 0.5;
+    let x = a.lu().solve(&rhs)?;
+    let p = DMatrix::from_fn(n, n, |i, j| x[(idx(i, j), 0)]);
     p.iter().all(|v| v.is_finite()).then_some(p)
 }
 
@@ -72,5 +78,27 @@ mod tests {
         let h = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -4.0, 0.0]);
         let q = DMatrix::identity(2, 2);
         assert!(solve_lyapunov(&h, &q).is_none());
+    }
+
+    #[test]
+    fn larger_system_residual() {
+        // 6 × 6 (three modes): a stable, non-normal H and a semidefinite Q.
+        let n = 6;
+        let h = DMatrix::from_fn(n, n, |i, j| {
+            if i == j {
+                -1.0 - 0.3 * i as f64
+            } else {
+                (((i * 7 + j * 3) % 5) as f64 - 2.0) * 0.4
+            }
+        });
+        let c = DMatrix::from_fn(n, 1, |i, _| (i as f64 - 2.5) * 0.7);
+        let q = &c * c.transpose();
+        let Some(p) = solve_lyapunov(&h, &q) else {
+            unreachable!("stable H")
+        };
+        assert!(residual(&h, &p, &q) < 1e-12, "{}", residual(&h, &p, &q));
+        // P is positive semidefinite: zᵀ P z = ∫ (cᵀ z)² ≥ 0.
+        let eig = p.clone().symmetric_eigen();
+        assert!(eig.eigenvalues.iter().all(|&l| l > -1e-12));
     }
 }
