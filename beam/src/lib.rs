@@ -1,0 +1,17 @@
+//! # flexarm-beam
+//!
+//! Host-side design tools for link 2 of the flexarm: the exact modes of the segmented beam with
+//! the piezo patch (Eqs. 1–4), the closed modal loop of the piezo rate feedback and its
+//! dissipated energy (Eqs. 21–33), and the placement optimization (Eqs. 34–35).
+//! `docs/optimization.md` states every choice made where the paper is silent.
+
+pub mod cli;
+pub mod config;
+pub mod design;
+pub mod fem;
+pub mod fragment;
+pub mod lyapunov;
+pub mod optimize;
+pub mod plot;
+pub mod section;
+pub mod segmented;
