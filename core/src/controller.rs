@@ -179,16 +179,24 @@ impl<T: Real> Controller<T> {
             self.latch.check(self.observer.correct(y))?;
             self.previous = Some(*y);
         }
-        let (q, qd) = match full {
-            Some((q, qd)) => (*q, *qd),
-            None => self.observer.state(),
-        };
+        let (q_hat, qd_hat) = self.observer.state();
+        // One set of B(q) terms serves the law and the observer's prediction when the law runs
+        // on the estimate.
+        let terms_hat = self.motor.model.terms(&q_hat);
         let target = self.trajectory.sample(t);
-        let out = self.latch.check(self.motor.step(t, &q, &qd, &target))?;
+        let out = match full {
+            Some((q, qd)) => self.motor.step(t, q, qd, &target),
+            None => self
+                .motor
+                .step_with(&terms_hat, t, &q_hat, &qd_hat, &target),
+        };
+        let out = self.latch.check(out)?;
         let u = Vector4::new(out.tau.x, out.tau.y, T::zero(), T::zero())
             + self.patch.generalized_force(self.v_a);
-        self.latch
-            .check(self.observer.predict(&self.motor.model, &u))?;
+        self.latch.check(
+            self.observer
+                .predict_with(&self.motor.model, &terms_hat, &u),
+        )?;
         Some(out)
     }
 
@@ -198,15 +206,18 @@ impl<T: Real> Controller<T> {
         if self.latch.fault().is_some() {
             return T::zero();
         }
-        if !v_f.finite() {
-            self.trip(Fault::NonFinite);
+        // One comparison rejects NaN, ±∞ and out-of-range samples; the cause is sorted out on
+        // the (rare) fault path.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
+        if !(v_f.abs() <= self.sensors.v_f_max) {
+            self.trip(if v_f.finite() {
+                Fault::OutOfRange
+            } else {
+                Fault::NonFinite
+            });
             return T::zero();
         }
-        if v_f.abs() > self.sensors.v_f_max {
-            self.trip(Fault::OutOfRange);
-            return T::zero();
-        }
-        self.v_a = self.piezo.step(v_f);
+        self.v_a = self.piezo.step_finite(v_f);
         self.v_a
     }
 }

@@ -17,11 +17,9 @@
 //! `C` comes from the Christoffel symbols of `B`, written as `C = ½(Ḃ + Y − Yᵀ)` with
 //! `Y_ij = Σ_k ∂b_ik/∂q_j q̇_k`, so `Ḃ − 2C = Yᵀ − Y` is skew-symmetric by construction.
 
-use nalgebra::Cholesky;
-
 use crate::params::ArmParams;
 use crate::real::Real;
-use crate::{Matrix4, Vector2, Vector4};
+use crate::{Matrix2, Matrix4, Vector2, Vector4};
 
 /// The arm model: parameters plus the constants of `B(q)` computed once.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,21 +68,36 @@ impl<T: Real> Model<T> {
 
     /// [`Self::inertia`] with `(sin θ2, cos θ2)` already computed.
     pub fn inertia_sc(&self, s2: T, c2: T, q: &Vector4<T>) -> Matrix4<T> {
-        let delta = Vector2::new(q.z, q.w);
-        let jd = self.j_const + delta.dot(&delta);
-        let h = self.a1_s2 * c2 - s2 * self.a1_v.dot(&delta);
+        self.terms_sc(s2, c2, q).inertia()
+    }
+
+    /// The configuration-dependent terms of `B(q)` and `∂B/∂q`, computed once per step.
+    pub fn terms(&self, q: &Vector4<T>) -> Terms<T> {
+        let (s2, c2) = q.y.lsin_cos();
+        self.terms_sc(s2, c2, q)
+    }
+
+    /// [`Self::terms`] with `(sin θ2, cos θ2)` already computed.
+    pub fn terms_sc(&self, s2: T, c2: T, q: &Vector4<T>) -> Terms<T> {
+        let (d1, d2) = (q.z, q.w);
+        let jd = self.j_const + d1 * d1 + d2 * d2;
+        let a1v_delta = self.a1_v.x * d1 + self.a1_v.y * d2;
+        let h = self.a1_s2 * c2 - s2 * a1v_delta;
         let w = self.params.modes.moment_integral;
-        let b13 = self.a1_v.x * c2 + w.x;
-        let b14 = self.a1_v.y * c2 + w.y;
-        let b11 = self.a_const + jd + h + h;
-        let b12 = jd + h;
-        let (o, z) = (T::one(), T::zero());
-        Matrix4::new(
-            b11, b12, b13, b14, //
-            b12, jd, w.x, w.y, //
-            b13, w.x, o, z, //
-            b14, w.y, z, o,
-        )
+        Terms {
+            b11: self.a_const + jd + h + h,
+            b12: jd + h,
+            b22: jd,
+            b13: self.a1_v.x * c2 + w.x,
+            b14: self.a1_v.y * c2 + w.y,
+            w1: w.x,
+            w2: w.y,
+            dh: -self.a1_s2 * s2 - c2 * a1v_delta,
+            d13: -self.a1_v.x * s2,
+            d14: -self.a1_v.y * s2,
+            d1,
+            d2,
+        }
     }
 
     /// Partial derivatives `∂B/∂q_k`, k = 0..3 (`∂B/∂θ1 = 0`).
@@ -176,57 +189,7 @@ impl<T: Real> Model<T> {
         qd: &Vector4<T>,
         v: &Vector4<T>,
     ) -> Vector4<T> {
-        let two = T::c(2.0);
-        let (d1, d2) = (q.z, q.w);
-        let (w0, w1, w2, w3) = (qd.x, qd.y, qd.z, qd.w);
-        let (v0, v1, v2, v3) = (v.x, v.y, v.z, v.w);
-        // ∂B/∂θ2: p00 = 2dh, p01 = dh, p02 = d13, p03 = d14 (symmetric, zero elsewhere).
-        let dh = -self.a1_s2 * s2 - c2 * (self.a1_v.x * d1 + self.a1_v.y * d2);
-        let d13 = -self.a1_v.x * s2;
-        let d14 = -self.a1_v.y * s2;
-        // ∂B/∂δj on the joint block: [[2δj + 2e_j, 2δj + e_j], [2δj + e_j, 2δj]], e_j = −a1 v_j s2.
-        let q_blk = |dj: T, a1vj: T, x0: T, x1: T| {
-            let e = -s2 * a1vj;
-            let (m00, m01, m11) = (two * (dj + e), two * dj + e, two * dj);
-            (m00 * x0 + m01 * x1, m01 * x0 + m11 * x1)
-        };
-        let p_times = |x: &Vector4<T>| {
-            Vector4::new(
-                two * dh * x.x + dh * x.y + d13 * x.z + d14 * x.w,
-                dh * x.x,
-                d13 * x.x,
-                d14 * x.x,
-            )
-        };
-        // Ḃv = θ̇2 ∂B/∂θ2 v + Σ δ̇j ∂B/∂δj v.
-        let pv = p_times(v);
-        let q1v = q_blk(d1, self.a1_v.x, v0, v1);
-        let q2v = q_blk(d2, self.a1_v.y, v0, v1);
-        let b_dot_v = pv * w1
-            + Vector4::new(
-                q1v.0 * w2 + q2v.0 * w3,
-                q1v.1 * w2 + q2v.1 * w3,
-                T::zero(),
-                T::zero(),
-            );
-        // Y's columns: 0, ∂B/∂θ2 q̇, ∂B/∂δ1 q̇, ∂B/∂δ2 q̇.
-        let pq = p_times(qd);
-        let g1 = q_blk(d1, self.a1_v.x, w0, w1);
-        let g2 = q_blk(d2, self.a1_v.y, w0, w1);
-        let y_v = pq * v1
-            + Vector4::new(
-                g1.0 * v2 + g2.0 * v3,
-                g1.1 * v2 + g2.1 * v3,
-                T::zero(),
-                T::zero(),
-            );
-        let yt_v = Vector4::new(
-            T::zero(),
-            pq.dot(v),
-            g1.0 * v0 + g1.1 * v1,
-            g2.0 * v0 + g2.1 * v1,
-        );
-        (b_dot_v + y_v - yt_v) * T::c(0.5)
+        self.terms_sc(s2, c2, q).c_times(qd, v)
     }
 
     /// Modal stiffness `K = diag(ω1², ω2²)` [1/s²] (the lower block of `K_e`).
@@ -259,7 +222,8 @@ impl<T: Real> Model<T> {
         (self.k.x * q.z * q.z + self.k.y * q.w * q.w) * T::c(0.5)
     }
 
-    /// Forward dynamics: `q̈ = B⁻¹ (u − C q̇ − K_e q − D q̇)` through a Cholesky solve.
+    /// Forward dynamics: `q̈ = B⁻¹ (u − C q̇ − K_e q − D q̇)`, solved through the 2×2 Schur
+    /// complement of the identity modal block ([`Terms::solve`]).
     /// `None` if `B` is not numerically positive definite (non-finite state).
     pub fn acceleration(
         &self,
@@ -267,13 +231,196 @@ impl<T: Real> Model<T> {
         qd: &Vector4<T>,
         u: &Vector4<T>,
     ) -> Option<Vector4<T>> {
-        let rhs =
-            u - self.coriolis_times(q, qd, qd) - self.elastic_force(q) - self.damping_force(qd);
-        Cholesky::new(self.inertia(q)).map(|c| c.solve(&rhs))
+        self.acceleration_with(&self.terms(q), q, qd, u)
+    }
+
+    /// [`Self::acceleration`] with the terms of `B(q)` already computed.
+    pub fn acceleration_with(
+        &self,
+        terms: &Terms<T>,
+        q: &Vector4<T>,
+        qd: &Vector4<T>,
+        u: &Vector4<T>,
+    ) -> Option<Vector4<T>> {
+        let rhs = u - terms.c_times(qd, qd) - self.elastic_force(q) - self.damping_force(qd);
+        terms.solve(&rhs)
     }
 
     /// Tip deflection `w(a2) = Σ φ_j(a2) δ_j` [m], normal to the undeformed link 2.
     pub fn tip_deflection(&self, q: &Vector4<T>) -> T {
         self.params.modes.tip.dot(&Vector2::new(q.z, q.w))
+    }
+}
+
+/// The entries of `B(q)` and `∂B/∂q` at one configuration.
+///
+/// `B` has the block form `[[B_θθ, B_θδ], [B_θδᵀ, I]]` (unit modal mass), so it is solved
+/// through the 2×2 Schur complement `S = B_θθ − B_θδ B_θδᵀ` (positive definite whenever `B` is):
+/// no square root, no 4×4 factorization. `∂B/∂q` has three non-zero slices (`θ2`, `δ1`, `δ2`),
+/// whose entries are `dh`, `d13`, `d14` and `2δ_j`, `e_j = d1,2+j`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Terms<T> {
+    /// `b11 = A + J(δ) + 2h`.
+    pub b11: T,
+    /// `b12 = J(δ) + h`.
+    pub b12: T,
+    /// `b22 = J(δ)`.
+    pub b22: T,
+    /// `b13 = a1 cos θ2 v1 + w1`.
+    pub b13: T,
+    /// `b14 = a1 cos θ2 v2 + w2`.
+    pub b14: T,
+    /// `b23 = w1`.
+    pub w1: T,
+    /// `b24 = w2`.
+    pub w2: T,
+    /// `∂h/∂θ2`.
+    pub dh: T,
+    /// `∂b13/∂θ2 = −a1 v1 sin θ2` (also `∂h/∂δ1`).
+    pub d13: T,
+    /// `∂b14/∂θ2 = −a1 v2 sin θ2` (also `∂h/∂δ2`).
+    pub d14: T,
+    /// `δ1`.
+    pub d1: T,
+    /// `δ2`.
+    pub d2: T,
+}
+
+impl<T: Real> Terms<T> {
+    /// `B(q)` as a matrix.
+    pub fn inertia(&self) -> Matrix4<T> {
+        let (o, z) = (T::one(), T::zero());
+        Matrix4::new(
+            self.b11, self.b12, self.b13, self.b14, //
+            self.b12, self.b22, self.w1, self.w2, //
+            self.b13, self.w1, o, z, //
+            self.b14, self.w2, z, o,
+        )
+    }
+
+    /// `B v`.
+    pub fn b_times(&self, v: &Vector4<T>) -> Vector4<T> {
+        let j = self.b_times_joints(v);
+        Vector4::new(
+            j.x,
+            j.y,
+            self.b13 * v.x + self.w1 * v.y + v.z,
+            self.b14 * v.x + self.w2 * v.y + v.w,
+        )
+    }
+
+    /// The joint rows of `B v`.
+    pub fn b_times_joints(&self, v: &Vector4<T>) -> Vector2<T> {
+        Vector2::new(
+            self.b11 * v.x + self.b12 * v.y + self.b13 * v.z + self.b14 * v.w,
+            self.b12 * v.x + self.b22 * v.y + self.w1 * v.z + self.w2 * v.w,
+        )
+    }
+
+    /// `∂B/∂δj` restricted to the joint block, times `(x0, x1)`: `[[2δj + 2e_j, 2δj + e_j],
+    /// [2δj + e_j, 2δj]]`.
+    fn q_block(dj: T, e: T, x0: T, x1: T) -> (T, T) {
+        let two = T::c(2.0);
+        let (m00, m01, m11) = (two * (dj + e), two * dj + e, two * dj);
+        (m00 * x0 + m01 * x1, m01 * x0 + m11 * x1)
+    }
+
+    /// `∂B/∂θ2 · x`.
+    fn p_times(&self, x: &Vector4<T>) -> Vector4<T> {
+        let two = T::c(2.0);
+        Vector4::new(
+            two * self.dh * x.x + self.dh * x.y + self.d13 * x.z + self.d14 * x.w,
+            self.dh * x.x,
+            self.d13 * x.x,
+            self.d14 * x.x,
+        )
+    }
+
+    /// `C(q, q̇) v = ½(Ḃv + Yv − Yᵀv)` (Christoffel symbols), `Y = [0, ∂B/∂θ2 q̇, ∂B/∂δ1 q̇, ∂B/∂δ2 q̇]`.
+    pub fn c_times(&self, qd: &Vector4<T>, v: &Vector4<T>) -> Vector4<T> {
+        let (w0, w1, w2, w3) = (qd.x, qd.y, qd.z, qd.w);
+        let (v0, v1, v2, v3) = (v.x, v.y, v.z, v.w);
+        let pv = self.p_times(v);
+        let q1v = Self::q_block(self.d1, self.d13, v0, v1);
+        let q2v = Self::q_block(self.d2, self.d14, v0, v1);
+        let b_dot_v = pv * w1
+            + Vector4::new(
+                q1v.0 * w2 + q2v.0 * w3,
+                q1v.1 * w2 + q2v.1 * w3,
+                T::zero(),
+                T::zero(),
+            );
+        let pq = self.p_times(qd);
+        let g1 = Self::q_block(self.d1, self.d13, w0, w1);
+        let g2 = Self::q_block(self.d2, self.d14, w0, w1);
+        let y_v = pq * v1
+            + Vector4::new(
+                g1.0 * v2 + g2.0 * v3,
+                g1.1 * v2 + g2.1 * v3,
+                T::zero(),
+                T::zero(),
+            );
+        let yt_v = Vector4::new(
+            T::zero(),
+            pq.dot(v),
+            g1.0 * v0 + g1.1 * v1,
+            g2.0 * v0 + g2.1 * v1,
+        );
+        (b_dot_v + y_v - yt_v) * T::c(0.5)
+    }
+
+    /// The joint rows of `C(q, q̇) v`: all the motors need.
+    pub fn c_times_joints(&self, qd: &Vector4<T>, v: &Vector4<T>) -> Vector2<T> {
+        let (w0, w1, w2, w3) = (qd.x, qd.y, qd.z, qd.w);
+        let (v0, v1, v2, v3) = (v.x, v.y, v.z, v.w);
+        let two = T::c(2.0);
+        let q1v = Self::q_block(self.d1, self.d13, v0, v1);
+        let q2v = Self::q_block(self.d2, self.d14, v0, v1);
+        let g1 = Self::q_block(self.d1, self.d13, w0, w1);
+        let g2 = Self::q_block(self.d2, self.d14, w0, w1);
+        let pq0 = two * self.dh * w0 + self.dh * w1 + self.d13 * w2 + self.d14 * w3;
+        let pv0 = two * self.dh * v0 + self.dh * v1 + self.d13 * v2 + self.d14 * v3;
+        let pq_dot_v = pq0 * v0 + w0 * (self.dh * v1 + self.d13 * v2 + self.d14 * v3);
+        let r0 = pv0 * w1 + q1v.0 * w2 + q2v.0 * w3 + pq0 * v1 + g1.0 * v2 + g2.0 * v3;
+        let r1 =
+            self.dh * v0 * w1 + q1v.1 * w2 + q2v.1 * w3 + self.dh * w0 * v1 + g1.1 * v2 + g2.1 * v3
+                - pq_dot_v;
+        Vector2::new(r0, r1) * T::c(0.5)
+    }
+
+    /// `S⁻¹`, the inverse of the Schur complement `S = B_θθ − B_θδ B_θδᵀ`; `None` unless `S` is
+    /// numerically positive definite.
+    pub fn schur_inverse(&self) -> Option<Matrix2<T>> {
+        let s11 = self.b11 - self.b13 * self.b13 - self.b14 * self.b14;
+        let s12 = self.b12 - self.b13 * self.w1 - self.b14 * self.w2;
+        let s22 = self.b22 - self.w1 * self.w1 - self.w2 * self.w2;
+        let det = s11 * s22 - s12 * s12;
+        if !(s11 > T::zero() && det > T::zero() && det.finite()) {
+            return None;
+        }
+        let inv = T::one() / det;
+        Some(Matrix2::new(s22 * inv, -s12 * inv, -s12 * inv, s11 * inv))
+    }
+
+    /// Solves `B x = r` (forward dynamics).
+    pub fn solve(&self, r: &Vector4<T>) -> Option<Vector4<T>> {
+        let s_inv = self.schur_inverse()?;
+        let rt = Vector2::new(
+            r.x - self.b13 * r.z - self.b14 * r.w,
+            r.y - self.w1 * r.z - self.w2 * r.w,
+        );
+        let xt = s_inv * rt;
+        Some(Vector4::new(
+            xt.x,
+            xt.y,
+            r.z - self.b13 * xt.x - self.w1 * xt.y,
+            r.w - self.b14 * xt.x - self.w2 * xt.y,
+        ))
+    }
+
+    /// `M = (B⁻¹)_δθ = −B_δθ S⁻¹`: how joint torques move the modal accelerations.
+    pub fn modal_input_map(&self) -> Option<Matrix2<T>> {
+        let s_inv = self.schur_inverse()?;
+        Some(-Matrix2::new(self.b13, self.w1, self.b14, self.w2) * s_inv)
     }
 }

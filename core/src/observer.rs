@@ -21,7 +21,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::fault::Fault;
-use crate::model::Model;
+use crate::model::{Model, Terms};
 use crate::real::Real;
 use crate::{Vector2, Vector4};
 
@@ -91,8 +91,19 @@ impl<T: Real> Observer<T> {
     /// Prediction over one period with the generalized force `u` just applied (joint torques
     /// and the piezo's modal force).
     pub fn predict(&mut self, model: &Model<T>, u: &Vector4<T>) -> Result<(), Fault> {
+        self.predict_with(model, &model.terms(&self.q), u)
+    }
+
+    /// [`Self::predict`] with the terms of `B(q̂)` already computed (the motor law used them at
+    /// the same estimate).
+    pub fn predict_with(
+        &mut self,
+        model: &Model<T>,
+        terms: &Terms<T>,
+        u: &Vector4<T>,
+    ) -> Result<(), Fault> {
         let qdd = model
-            .acceleration(&self.q, &self.qd, u)
+            .acceleration_with(terms, &self.q, &self.qd, u)
             .ok_or(Fault::Singular)?;
         let qd = self.qd + qdd * self.period;
         let q = self.q + qd * self.period;

@@ -4,9 +4,7 @@
 
 use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch, RateFilter};
-use flexarm_core::control::robust::{
-    joint_torque_for_modal_accel, modal_damping_accel, modal_input_map,
-};
+use flexarm_core::control::robust::{joint_torque_for_modal_accel, modal_damping_accel};
 use flexarm_core::control::tracking::eq7;
 use flexarm_core::limits::saturate;
 use flexarm_core::model::Model;
@@ -117,10 +115,10 @@ fn robust_torque_delivers_the_requested_modal_acceleration() {
     // least-squares torque reproduces the request.
     let m = Model::new(ArmParams::<f64>::default());
     let q = Vector4::new(0.3, 0.4, 0.01, -0.002);
-    let b = m.inertia(&q);
+    let terms = m.terms(&q);
     let a = Vector2::new(-0.7, 0.3);
-    let tau = joint_torque_for_modal_accel(&b, &a, 1e-4);
-    let mm = modal_input_map(&b).unwrap();
+    let tau = joint_torque_for_modal_accel(&terms, &a, 1e-4);
+    let mm = terms.modal_input_map().unwrap();
     assert!((mm * tau - a).abs().max() < 1e-6, "M τ = {}", mm * tau);
     // The modal accelerations of the plant under that torque alone (at rest) are M τ.
     let acc = m
@@ -131,8 +129,8 @@ fn robust_torque_delivers_the_requested_modal_acceleration() {
         .unwrap();
     assert!(((acc - acc0).fixed_rows::<2>(2) - a).abs().max() < 1e-6);
     // Where M loses rank (θ2 = π/2) the torque stays bounded.
-    let b90 = m.inertia(&Vector4::new(0.0, core::f64::consts::FRAC_PI_2, 0.0, 0.0));
-    let tau90 = joint_torque_for_modal_accel(&b90, &a, 0.1);
+    let t90 = m.terms(&Vector4::new(0.0, core::f64::consts::FRAC_PI_2, 0.0, 0.0));
+    let tau90 = joint_torque_for_modal_accel(&t90, &a, 0.1);
     assert!(tau90.norm() < 10.0 * tau.norm(), "{tau90} vs {tau}");
 }
 

@@ -186,6 +186,24 @@ proptest! {
         prop_assert!((full - sparse).abs().max() < 1e-12 * (1.0 + full.abs().max()), "{} vs {}", full, sparse);
     }
 
+    /// The structured products and the Schur-complement solve agree with the dense matrices.
+    #[test]
+    fn structured_terms_agree_with_dense_algebra((q, qd) in state(), v in state()) {
+        let m = model();
+        let t = m.terms(&q);
+        let b = m.inertia(&q);
+        let tol = |x: f64| 1e-10 * (1.0 + x.abs());
+        prop_assert!((t.b_times(&v.0) - b * v.0).abs().max() < tol((b * v.0).abs().max()));
+        let cv = m.coriolis(&q, &qd) * v.1;
+        let cj = t.c_times_joints(&qd, &v.1);
+        prop_assert!((cj.x - cv.x).abs() < tol(cv.x) && (cj.y - cv.y).abs() < tol(cv.y), "{} vs {}", cj, cv);
+        let b_inv = b.try_inverse().unwrap();
+        let x = t.solve(&v.0).unwrap();
+        prop_assert!((x - b_inv * v.0).abs().max() < 1e-9 * (1.0 + x.abs().max()));
+        let mm = t.modal_input_map().unwrap();
+        prop_assert!((mm - b_inv.fixed_view::<2, 2>(2, 0)).abs().max() < 1e-9);
+    }
+
     #[test]
     fn power_balance_holds(
         (q, qd) in state(),

@@ -2,10 +2,10 @@
 //! saturation.
 
 use crate::control::robust::{joint_torque_for_modal_accel, modal_damping_accel};
-use crate::control::tracking::{Reference, eq7_with};
+use crate::control::tracking::{Reference, eq7_joints};
 use crate::fault::Fault;
 use crate::limits::saturate2;
-use crate::model::Model;
+use crate::model::{Model, Terms};
 use crate::params::{Gains, Limits};
 use crate::real::Real;
 use crate::trajectory::JointTarget;
@@ -55,16 +55,24 @@ impl<T: Real> MotorController<T> {
         qd: &Vector4<T>,
         target: &JointTarget<T>,
     ) -> Result<MotorOutput<T>, Fault> {
+        self.step_with(&self.model.terms(q), t, q, qd, target)
+    }
+
+    /// [`Self::step`] with the terms of `B(q)` already computed (shared with the observer).
+    pub fn step_with(
+        &self,
+        terms: &Terms<T>,
+        t: T,
+        q: &Vector4<T>,
+        qd: &Vector4<T>,
+        target: &JointTarget<T>,
+    ) -> Result<MotorOutput<T>, Fault> {
         let finite = |v: &Vector4<T>| v.iter().all(|x| x.finite());
         if !t.finite() || !finite(q) || !finite(qd) {
             return Err(Fault::NonFinite);
         }
-        let (s2, c2) = q.y.lsin_cos();
-        let b = self.model.inertia_sc(s2, c2, q);
         let r = Reference::new(&self.gains.lambda, q, qd, target);
-        let c_qd_r = self.model.coriolis_times_sc(s2, c2, q, qd, &r.qd_r);
-        let u = eq7_with(&self.model, &b, &c_qd_r, &self.gains.kp, &r);
-        let mut tau = Vector2::new(u.x, u.y);
+        let mut tau = eq7_joints(terms, qd, &self.gains.kp, &r);
         if self.law == MotorLaw::Robust {
             let a = modal_damping_accel(
                 &self.gains,
@@ -72,7 +80,7 @@ impl<T: Real> MotorController<T> {
                 &Vector2::new(qd.z, qd.w),
                 &Vector2::new(r.s.z, r.s.w),
             );
-            tau += joint_torque_for_modal_accel(&b, &a, self.gains.mu);
+            tau += joint_torque_for_modal_accel(terms, &a, self.gains.mu);
         }
         if !(tau.x.finite() && tau.y.finite()) {
             return Err(Fault::Singular);

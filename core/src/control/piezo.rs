@@ -24,7 +24,6 @@
 //!   area whose mid-plane lies `z_f = (t_b + t_f)/2` from the beam's neutral axis: charge
 //!   `e31 b z_f Δw'` over capacitance `C b l_a`, with `e31/C = g31 E_f t_f`.
 
-use crate::limits::saturate;
 use crate::modes::UniformMode;
 use crate::real::Real;
 use crate::{Vector2, Vector4};
@@ -166,11 +165,17 @@ pub struct RateFilter<T> {
 impl<T: Real> RateFilter<T> {
     /// A filter with corner `cutoff_hz` [Hz] sampled every `period` [s].
     pub fn new(cutoff_hz: T, period: T) -> Self {
+        Self::with_gain(cutoff_hz, period, T::one())
+    }
+
+    /// The same filter followed by a constant `gain`, folded into its coefficient (one
+    /// multiplication less per sample).
+    pub fn with_gain(cutoff_hz: T, period: T, gain: T) -> Self {
         let wc = T::c(core::f64::consts::TAU) * cutoff_hz;
         let den = T::c(2.0) + wc * period;
         Self {
             a: (T::c(2.0) - wc * period) / den,
-            b: T::c(2.0) * wc / den,
+            b: gain * T::c(2.0) * wc / den,
             x_prev: T::zero(),
             y: T::zero(),
             primed: false,
@@ -217,11 +222,11 @@ impl<T: Real> Default for PiezoGains<T> {
     }
 }
 
-/// The piezo loop: `V_a = sat(−k_c V̇_f)` (Eq. 17).
+/// The piezo loop: `V_a = sat(−k_c V̇_f)` (Eq. 17); the gain `−k_c` is folded into the
+/// derivative filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PiezoLaw<T> {
     filter: RateFilter<T>,
-    k_c: T,
     v_max: T,
 }
 
@@ -229,8 +234,7 @@ impl<T: Real> PiezoLaw<T> {
     /// A law sampled every `period` [s], saturating at `±v_max` [V].
     pub fn new(gains: &PiezoGains<T>, period: T, v_max: T) -> Self {
         Self {
-            filter: RateFilter::new(gains.cutoff_hz, period),
-            k_c: gains.k_c,
+            filter: RateFilter::with_gain(gains.cutoff_hz, period, -gains.k_c),
             v_max,
         }
     }
@@ -242,7 +246,13 @@ impl<T: Real> PiezoLaw<T> {
             self.filter.reset();
             return T::zero();
         }
-        saturate(-self.k_c * self.filter.update(v_f), self.v_max)
+        self.step_finite(v_f)
+    }
+
+    /// [`Self::step`] for a sample the caller has already checked to be finite and bounded:
+    /// the filter is stable, so its output is finite and a plain clamp saturates it.
+    pub fn step_finite(&mut self, v_f: T) -> T {
+        self.filter.update(v_f).clamp(-self.v_max, self.v_max)
     }
 
     /// Forgets the filter's history.

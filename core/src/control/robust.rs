@@ -21,11 +21,10 @@
 //! The torque that best delivers `a_Δ` is the damped least-squares solution
 //! `Δτ = Mᵀ (M Mᵀ + μ² σ² I)⁻¹ a_Δ`, `σ² = ‖M‖²_F / 2`, which stays bounded where `M` loses rank.
 
-use nalgebra::Cholesky;
-
+use crate::model::Terms;
 use crate::params::Gains;
 use crate::real::Real;
-use crate::{Matrix2, Matrix4, Vector2};
+use crate::{Matrix2, Vector2};
 
 /// Requested modal acceleration `a_Δ = −D'_Δ δ̇` [√kg·m/s² per unit modal mass] at time `t` [s].
 pub fn modal_damping_accel<T: Real>(
@@ -58,26 +57,14 @@ pub fn modal_damping_accel<T: Real>(
     )
 }
 
-/// `M = (B⁻¹)_δθ`: how joint torques move the modal accelerations. `None` if `B` cannot be
-/// factored.
-pub fn modal_input_map<T: Real>(b: &Matrix4<T>) -> Option<Matrix2<T>> {
-    let chol = Cholesky::new(*b)?;
-    let cols = chol.solve(&nalgebra::Matrix4x2::new(
-        T::one(),
-        T::zero(),
-        T::zero(),
-        T::one(),
-        T::zero(),
-        T::zero(),
-        T::zero(),
-        T::zero(),
-    ));
-    Some(cols.fixed_rows::<2>(2).into_owned())
-}
-
-/// Damped least-squares joint torque `Δτ` [N·m] that best produces the modal acceleration `a`.
-pub fn joint_torque_for_modal_accel<T: Real>(b: &Matrix4<T>, a: &Vector2<T>, mu: T) -> Vector2<T> {
-    let Some(m) = modal_input_map(b) else {
+/// Damped least-squares joint torque `Δτ` [N·m] that best produces the modal acceleration `a`,
+/// with `M = (B⁻¹)_δθ` from the terms of `B(q)` ([`Terms::modal_input_map`]).
+pub fn joint_torque_for_modal_accel<T: Real>(
+    terms: &Terms<T>,
+    a: &Vector2<T>,
+    mu: T,
+) -> Vector2<T> {
+    let Some(m) = terms.modal_input_map() else {
         return Vector2::zeros();
     };
     let sigma2 = m.norm_squared() * T::c(0.5);

@@ -7,11 +7,11 @@
 //! ignored (`g = 0`). Eqs. 16 and 20 print `C(q, q̇) q̇` where Eq. 7 has `C(q, q̇) q̇_r`; the
 //! Lyapunov argument of Eqs. 8–10 needs `q̇_r`, which we use throughout.
 
-use crate::model::Model;
+use crate::model::{Model, Terms};
 use crate::params::Gains;
 use crate::real::Real;
 use crate::trajectory::JointTarget;
-use crate::{Matrix4, Vector4};
+use crate::{Matrix4, Vector2, Vector4};
 
 /// The reference signals of Eq. 7.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,6 +58,31 @@ pub fn eq7_with<T: Real>(
 ) -> Vector4<T> {
     // K_e q_d = 0: the desired deflections are zero.
     b * r.qdd_r + c_qd_r + model.damping_force(&r.qd_r) - kp.component_mul(&r.s)
+}
+
+/// The joint rows of Eq. 7, the motor torques: `τ = (B q̈_r + C q̇_r − K_p s)_θ` (`K_e` and `D`
+/// vanish on the joint rows). Only these rows reach an actuator, so only these are computed.
+pub fn eq7_joints<T: Real>(
+    terms: &Terms<T>,
+    qd: &Vector4<T>,
+    kp: &Vector4<T>,
+    r: &Reference<T>,
+) -> Vector2<T> {
+    terms.b_times_joints(&r.qdd_r) + terms.c_times_joints(qd, &r.qd_r)
+        - Vector2::new(kp.x * r.s.x, kp.y * r.s.y)
+}
+
+/// The motor torques of Eq. 7 from the state: what a plain implementation of the law computes,
+/// `(q, q̇, q_d, q̇_d, q̈_d) → (τ1, τ2)`, with one `sin`/`cos` of θ2 and the structure of `B`.
+pub fn eq7_torques<T: Real>(
+    model: &Model<T>,
+    gains: &Gains<T>,
+    q: &Vector4<T>,
+    qd: &Vector4<T>,
+    target: &JointTarget<T>,
+) -> Vector2<T> {
+    let r = Reference::new(&gains.lambda, q, qd, target);
+    eq7_joints(&model.terms(q), qd, &gains.kp, &r)
 }
 
 /// Eq. 7 from the state: `u = B q̈_r + C q̇_r + K_e q_d + D q̇_r − K_p s`.
