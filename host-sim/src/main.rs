@@ -1,51 +1,204 @@
-//! `flexarm-sim`: runs the paper's trapezoid move under each controller and prints the indices.
+//! `flexarm-sim`: the paper's study, your own scenarios, the piezo placement and the Monte
+//! Carlo robustness study, from one command. Errors are one readable line and a non-zero exit.
 
-use flexarm_core::control::motor::MotorLaw;
-use flexarm_core::control::piezo::PiezoGains;
-use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
-use flexarm_sim::sim::{SimConfig, simulate};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
-fn main() {
-    let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
+use clap::{Args, Parser, Subcommand};
+use flexarm_sim::sim::Rates;
+use flexarm_sim::study::{self, Case, Options, Outcome};
+use flexarm_sim::{montecarlo, output, scenario};
+
+#[derive(Parser)]
+#[command(
+    name = "flexarm-sim",
+    version,
+    about = "Simulate the flexible two-link arm under the flexarm controllers"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The paper's study: trapezoid and circle under Eq. 7, Eq. 7 + piezo, Eq. 16, Eq. 16 + piezo.
+    Paper(Common),
+    /// One scenario file (TOML; see host-sim/scenarios/).
+    Run {
+        /// The scenario file.
+        scenario: PathBuf,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// The piezo placement optimization (Eqs. 21–35).
+    Optimize {
+        /// Configuration (TOML; see beam/examples/optimize.toml); defaults to the paper's.
+        config: Option<PathBuf>,
+        /// Output folder.
+        #[arg(long, default_value = "out/optimize")]
+        out: PathBuf,
+        /// Skip the figures.
+        #[arg(long)]
+        no_plots: bool,
+    },
+    /// Monte Carlo: the plant's masses, inertias, frequencies and damping perturbed by ±10 % and ±20 %.
+    Montecarlo {
+        /// Runs per perturbation level.
+        #[arg(long, default_value_t = 1000)]
+        runs: usize,
+        /// Seed of the perturbations.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output folder.
+        #[arg(long, default_value = "out/montecarlo")]
+        out: PathBuf,
+        /// Skip the figure.
+        #[arg(long)]
+        no_plots: bool,
+    },
+}
+
+#[derive(Args)]
+struct Common {
+    /// Output folder.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Skip the figures (CSV and tables are still written).
+    #[arg(long)]
+    no_plots: bool,
+    /// Plant integration step [s].
+    #[arg(long)]
+    plant_dt: Option<f64>,
+    /// Motor loop rate [Hz].
+    #[arg(long)]
+    motor_hz: Option<f64>,
+    /// Piezo loop rate [Hz].
+    #[arg(long)]
+    piezo_hz: Option<f64>,
+    /// Run length [s].
+    #[arg(long)]
+    duration: Option<f64>,
+}
+
+impl Common {
+    fn apply(&self, rates: &mut Rates, duration: &mut f64) {
+        rates.plant_dt = self.plant_dt.unwrap_or(rates.plant_dt);
+        rates.motor_hz = self.motor_hz.unwrap_or(rates.motor_hz);
+        rates.piezo_hz = self.piezo_hz.unwrap_or(rates.piezo_hz);
+        *duration = self.duration.unwrap_or(*duration);
+    }
+}
+
+type Result<T> = std::result::Result<T, String>;
+
+fn create(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))
+}
+
+fn write_outputs(dir: &Path, outcomes: &[Outcome], plots: bool, preamble: &str) -> Result<String> {
+    create(dir)?;
+    for o in outcomes {
+        output::write_csv(dir, o)
+            .map_err(|e| format!("cannot write CSV in {}: {e}", dir.display()))?;
+        if plots {
+            output::write_figure(dir, o).map_err(|e| {
+                format!(
+                    "cannot draw the figure of {}/{}: {e}",
+                    o.case.scenario, o.case.controller
+                )
+            })?;
+        }
+    }
+    let table = output::indices_table(outcomes);
+    let md = format!("# flexarm-sim: indices (Eqs. 37, 38)\n\n{preamble}{table}");
+    let path = dir.join("indices.md");
+    std::fs::write(&path, &md).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    Ok(table)
+}
+
+fn run_cases(cases: Vec<Case>, common: &Common, preamble: &str) -> Result<()> {
+    let outcomes = study::run(cases, true, true).map_err(|(case, e)| format!("{case}: {e}"))?;
+    let table = write_outputs(&common.out, &outcomes, !common.no_plots, preamble)?;
+    println!("{preamble}{table}");
     println!(
-        "| controller | L2 δ | L2 θ̃ [rad] | L2 tip [m] | L θ̃1 | L θ̃2 | max|τ| [N·m] | max|V_a| [V] |"
+        "Wrote {} (CSV{}, indices.md).",
+        common.out.display(),
+        if common.no_plots { "" } else { ", SVG figures" }
     );
-    println!("|---|---|---|---|---|---|---|---|");
-    for (name, law, piezo) in [
-        ("Eq. 7", MotorLaw::Tracking, None),
-        (
-            "Eq. 7 + piezo",
-            MotorLaw::Tracking,
-            Some(PiezoGains::default()),
-        ),
-        ("Eq. 16", MotorLaw::Robust, None),
-        (
-            "Eq. 16 + piezo",
-            MotorLaw::Robust,
-            Some(PiezoGains::default()),
-        ),
-    ] {
-        let cfg = SimConfig {
-            law,
-            piezo,
-            ..SimConfig::default()
-        };
-        match simulate(&cfg, &traj, false) {
-            Ok((s, _)) => println!(
-                "| {name} | {:.3e} | {:.3e} | {:.3e} | {:.2e} | {:.2e} | {:.2} / {:.2} | {:.1} |",
-                s.l2_delta,
-                s.l2_error,
-                s.l2_tip,
-                s.tail_error[0],
-                s.tail_error[1],
-                s.max_tau[0],
-                s.max_tau[1],
-                s.max_v_a
-            ),
-            Err(e) => {
-                eprintln!("error: {e}");
-                std::process::exit(1);
+    Ok(())
+}
+
+fn main_result(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Paper(common) => {
+            let mut opts = Options::default();
+            common.apply(&mut opts.rates, &mut opts.duration);
+            let cases = study::paper_cases(&opts).map_err(|e| e.to_string())?;
+            let note = study::printed_circle_error()
+                .map(|e| format!("{e}; the study runs the nearest reachable circle of the same radius, centre (0.65, 0) m (docs/model.md).\n\n"))
+                .unwrap_or_default();
+            run_cases(cases, &common, &note)
+        }
+        Command::Run { scenario, common } => {
+            let sc = scenario::load(&scenario).map_err(|e| e.to_string())?;
+            let mut config = sc.config;
+            common.apply(&mut config.rates, &mut config.duration);
+            config.rates.divisors().map_err(|e| e.to_string())?;
+            let name: &'static str = Box::leak(sc.name.into_boxed_str());
+            run_cases(
+                vec![Case {
+                    scenario: name,
+                    controller: "scenario",
+                    config,
+                    trajectory: sc.trajectory,
+                }],
+                &common,
+                "",
+            )
+        }
+        Command::Optimize {
+            config,
+            out,
+            no_plots,
+        } => {
+            let summary = flexarm_beam::cli::run_optimize(config.as_deref(), &out, !no_plots)
+                .map_err(|e| e.to_string())?;
+            println!("{summary}");
+            Ok(())
+        }
+        Command::Montecarlo {
+            runs,
+            seed,
+            out,
+            no_plots,
+        } => {
+            if runs == 0 {
+                return Err("--runs must be at least 1".into());
             }
+            create(&out)?;
+            let batches = montecarlo::run(&[0.1, 0.2], runs, seed, true);
+            let report = montecarlo::report(&batches);
+            let path = out.join("montecarlo.md");
+            std::fs::write(&path, format!("# Monte Carlo robustness\n\n{report}"))
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            if !no_plots {
+                montecarlo::figure(&out.join("montecarlo.svg"), &batches)
+                    .map_err(|e| format!("cannot draw the figure: {e}"))?;
+            }
+            println!("{report}\nWrote {}.", out.display());
+            Ok(())
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match main_result(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
         }
     }
 }

@@ -1,15 +1,26 @@
 //! The multi-rate closed loop: the plant integrated at `plant_dt`, the motor and piezo loops
 //! sampled at their own rates with zero-order hold, exactly as the firmware runs them.
+//!
+//! Two ways to feed the motor law:
+//! - [`StateSource::Full`]: the true state `(q, q̇)`, as the paper assumes;
+//! - [`StateSource::Observer`]: the firmware's complete controller (`flexarm_core::Controller`:
+//!   checks, observer, latch) fed by modelled sensors: quantized encoders and a quantized, noisy
+//!   film ADC ([`Sensors`]).
+//!
+//! The indices use the true state, whatever the controller sees.
 
 use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+use flexarm_core::controller::Controller;
 use flexarm_core::indices::{L2Norm, TailMean};
 use flexarm_core::model::Model;
+use flexarm_core::observer::{Measurement, NoiseModel, Observer, design, film_map};
 use flexarm_core::params::{ArmParams, Gains, Limits, ParamError};
+use flexarm_core::supervisor::SensorLimits;
 use flexarm_core::trajectory::JointTrajectory;
 use flexarm_core::{Fault, Vector2, Vector4};
 
-use crate::plant::{PlantError, State, rk4_step};
+use crate::plant::{Diverged, State, rk4_step};
 
 /// Loop rates and the plant step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -37,9 +48,12 @@ impl Rates {
     /// Plant steps per motor period and per piezo period; each period must be a whole number
     /// of plant steps.
     pub fn divisors(&self) -> Result<(u64, u64), SimError> {
+        if !(self.plant_dt.is_finite() && self.plant_dt > 0.0) {
+            return Err(SimError::Config(ParamError::NotPositive("plant_dt")));
+        }
         let div = |hz: f64, name: &'static str| {
-            if !(hz.is_finite() && hz > 0.0 && self.plant_dt.is_finite() && self.plant_dt > 0.0) {
-                return Err(SimError::Config(ParamError::InvalidRate(name)));
+            if !(hz.is_finite() && hz > 0.0) {
+                return Err(SimError::Config(ParamError::NotPositive(name)));
             }
             let n = 1.0 / (hz * self.plant_dt);
             let r = n.round();
@@ -59,11 +73,125 @@ impl Rates {
     }
 }
 
+/// Where the motor law takes the state from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum StateSource {
+    /// The true state (the paper's assumption).
+    #[default]
+    Full,
+    /// The firmware's controller with its observer, fed by [`Sensors`].
+    Observer,
+}
+
+/// Sensor and amplifier models.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sensors {
+    /// Encoder counts per revolution; `None` = exact angles.
+    pub encoder_counts: Option<f64>,
+    /// Film ADC resolution [bits] over `±adc_range`; `None` = exact voltage.
+    pub adc_bits: Option<u32>,
+    /// Film ADC range [V].
+    pub adc_range: f64,
+    /// White noise on the film voltage, standard deviation [V].
+    pub film_noise: f64,
+    /// Every measurement reaches the controller one period late.
+    pub delay: bool,
+    /// Piezo amplifier slew-rate limit [V/s]; `None` = unlimited.
+    pub piezo_slew: Option<f64>,
+    /// Seed of the noise generator (runs are reproducible).
+    pub seed: u64,
+}
+
+impl Default for Sensors {
+    /// Ideal sensors (the paper's setting).
+    fn default() -> Self {
+        Self {
+            encoder_counts: None,
+            adc_bits: None,
+            adc_range: 10.0,
+            film_noise: 0.0,
+            delay: false,
+            piezo_slew: None,
+            seed: 1,
+        }
+    }
+}
+
+impl Sensors {
+    /// A realistic board: 16384-count encoders, 12-bit ADC over ±10 V with 5 mV of noise, a
+    /// one-sample delay, a piezo amplifier slewing at most 50 V/ms.
+    pub fn realistic() -> Self {
+        Self {
+            encoder_counts: Some(16384.0),
+            adc_bits: Some(12),
+            adc_range: 10.0,
+            film_noise: 5e-3,
+            delay: true,
+            piezo_slew: Some(5e4),
+            seed: 1,
+        }
+    }
+
+    fn angle(&self, x: f64) -> f64 {
+        match self.encoder_counts {
+            Some(n) => {
+                let lsb = std::f64::consts::TAU / n;
+                (x / lsb).floor() * lsb
+            }
+            None => x,
+        }
+    }
+
+    fn film(&self, v: f64, rng: &mut Rng) -> f64 {
+        let v = v + self.film_noise * rng.normal();
+        match self.adc_bits {
+            Some(bits) => {
+                let r = self.adc_range;
+                let lsb = 2.0 * r / f64::from(1u32 << bits.min(24));
+                (v.clamp(-r, r - lsb) / lsb).floor() * lsb
+            }
+            None => v,
+        }
+    }
+}
+
+/// A small deterministic generator (xorshift64*) with Box–Muller normals.
+#[derive(Clone, Copy, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator from a seed (0 is replaced by a fixed non-zero value).
+    pub fn new(seed: u64) -> Self {
+        Self(if seed == 0 {
+            0x9E37_79B9_7F4A_7C15
+        } else {
+            seed
+        })
+    }
+
+    /// Uniform in (0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let bits = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
+        (bits as f64 + 0.5) / (1u64 << 53) as f64
+    }
+
+    /// Standard normal.
+    pub fn normal(&mut self) -> f64 {
+        let (u, v) = (self.uniform(), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
+
 /// Everything a closed-loop run needs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SimConfig {
-    /// The plant's parameters (also the controller's model, cast to `f32`).
+    /// The arm the controller believes in (its model, cast to `f32`).
     pub arm: ArmParams<f64>,
+    /// The arm that is simulated; `None` = the same as `arm` (Monte Carlo perturbs it).
+    pub plant: Option<ArmParams<f64>>,
     /// Motor-law gains.
     pub gains: Gains<f32>,
     /// Actuator limits.
@@ -76,6 +204,10 @@ pub struct SimConfig {
     pub piezo: Option<PiezoGains<f32>>,
     /// Rates.
     pub rates: Rates,
+    /// Where the law takes the state from.
+    pub state: StateSource,
+    /// Sensor and amplifier models.
+    pub sensors: Sensors,
     /// Run length [s].
     pub duration: f64,
     /// Window of Eq. 38 [s] at the end of the run.
@@ -86,12 +218,15 @@ impl Default for SimConfig {
     fn default() -> Self {
         Self {
             arm: ArmParams::default(),
+            plant: None,
             gains: Gains::default(),
             limits: Limits::default(),
             law: MotorLaw::Tracking,
             patch: PiezoPatch::paper(),
             piezo: None,
             rates: Rates::default(),
+            state: StateSource::Full,
+            sensors: Sensors::default(),
             duration: 5.0,
             tail_window: 3.0,
         }
@@ -113,7 +248,10 @@ pub enum SimError {
         plant_dt: f64,
     },
     /// The plant diverged.
-    Plant(PlantError),
+    Plant {
+        /// When [s].
+        t: f64,
+    },
     /// The controller went to its safe state.
     Fault {
         /// Why.
@@ -131,7 +269,7 @@ impl core::fmt::Display for SimError {
                 f,
                 "incompatible rates: {name} = {hz} Hz is not a whole number of plant steps of {plant_dt} s"
             ),
-            Self::Plant(e) => write!(f, "{e}"),
+            Self::Plant { t } => write!(f, "at t = {t:.4} s: {Diverged}"),
             Self::Fault { fault, t } => write!(f, "controller fault at t = {t:.4} s: {fault}"),
         }
     }
@@ -144,15 +282,17 @@ impl std::error::Error for SimError {}
 pub struct Sample {
     /// Time [s].
     pub t: f64,
-    /// Plant state.
-    pub x: State,
+    /// True plant state.
+    pub x: State<f64>,
     /// Desired joint angles [rad].
     pub q_d: Vector2<f64>,
+    /// The modal coordinates the controller used (estimate or truth) [√kg·m].
+    pub delta_seen: Vector2<f64>,
     /// Motor torques applied [N·m].
     pub tau: Vector2<f64>,
     /// Piezo actuator voltage applied [V].
     pub v_a: f64,
-    /// Film voltage [V].
+    /// Film voltage measured [V].
     pub v_f: f64,
     /// Tip deflection [m].
     pub tip: f64,
@@ -173,12 +313,87 @@ pub struct Summary {
     pub tail_error_abs: [f64; 2],
     /// Eq. 38 of δ, mean absolute value [√kg·m].
     pub tail_delta_abs: [f64; 2],
+    /// Largest |θ − θ_d| over both joints [rad].
+    pub max_error: f64,
     /// Largest |τ| per joint [N·m].
     pub max_tau: [f64; 2],
     /// Largest |V_a| [V].
     pub max_v_a: f64,
     /// Largest |tip deflection| [m].
     pub max_tip: f64,
+}
+
+/// The motor-side controller of a run (one per run: its size does not matter).
+#[allow(clippy::large_enum_variant)]
+enum Loop {
+    Full {
+        motor: MotorController<f32>,
+        piezo: Option<PiezoLaw<f32>>,
+    },
+    Observer(Box<Controller<f32>>),
+}
+
+fn build(
+    cfg: &SimConfig,
+    traj: &JointTrajectory<f32>,
+    motor_period: f64,
+    piezo_period: f64,
+) -> Result<Loop, SimError> {
+    let motor = MotorController {
+        model: Model::new(cfg.arm.cast::<f32>()),
+        gains: cfg.gains,
+        limits: cfg.limits,
+        law: cfg.law,
+    };
+    let piezo_law = |g: PiezoGains<f32>| PiezoLaw::new(&g, piezo_period as f32, cfg.limits.v_a_max);
+    Ok(match cfg.state {
+        StateSource::Full => Loop::Full {
+            motor,
+            piezo: cfg.piezo.map(piezo_law),
+        },
+        StateSource::Observer => {
+            let patch32 = PiezoPatch {
+                x_a: cfg.patch.x_a as f32,
+                l_a: cfg.patch.l_a as f32,
+                slope_diff: cfg.patch.slope_diff.cast::<f32>(),
+                k_a: cfg.patch.k_a as f32,
+                k_s: cfg.patch.k_s as f32,
+            };
+            let th0 = traj.sample(0.0).q;
+            let c_f = film_map(&cfg.patch);
+            let gain = design(
+                &Model::new(cfg.arm),
+                &c_f,
+                &Vector2::new(0.0, std::f64::consts::FRAC_PI_4),
+                motor_period,
+                &NoiseModel::default(),
+            )
+            .map_err(|_| SimError::Config(ParamError::InvalidRate("observer design")))?;
+            let off = PiezoGains {
+                k_c: 0.0,
+                ..PiezoGains::default()
+            };
+            let c = Controller::new(
+                motor,
+                piezo_law(cfg.piezo.unwrap_or(off)),
+                patch32,
+                Observer::new(
+                    gain.cast::<f32>(),
+                    film_map(&patch32),
+                    motor_period as f32,
+                    th0,
+                ),
+                SensorLimits::default(),
+                *traj,
+                motor_period as f32,
+                3,
+            );
+            if let Some(fault) = c.fault() {
+                return Err(SimError::Fault { fault, t: 0.0 });
+            }
+            Loop::Observer(Box::new(c))
+        }
+    })
 }
 
 /// Runs the closed loop from rest at `θ_d(0)`; `record` keeps one [`Sample`] per motor period.
@@ -188,29 +403,27 @@ pub fn simulate(
     record: bool,
 ) -> Result<(Summary, Vec<Sample>), SimError> {
     cfg.arm.validate().map_err(SimError::Config)?;
+    if let Some(p) = &cfg.plant {
+        p.validate().map_err(SimError::Config)?;
+    }
     cfg.gains.validate().map_err(SimError::Config)?;
     cfg.limits.validate().map_err(SimError::Config)?;
     if !(cfg.duration.is_finite() && cfg.duration > 0.0) {
         return Err(SimError::Config(ParamError::NotPositive("duration")));
     }
+    if !(cfg.tail_window.is_finite() && cfg.tail_window > 0.0) {
+        return Err(SimError::Config(ParamError::NotPositive("tail_window")));
+    }
     let (motor_div, piezo_div) = cfg.rates.divisors()?;
     let dt = cfg.rates.plant_dt;
-    let plant = Model::new(cfg.arm);
-    let motor = MotorController {
-        model: Model::new(cfg.arm.cast::<f32>()),
-        gains: cfg.gains,
-        limits: cfg.limits,
-        law: cfg.law,
-    };
-    let piezo_period = (dt * piezo_div as f64) as f32;
-    let mut piezo = cfg
-        .piezo
-        .map(|g| PiezoLaw::new(&g, piezo_period, cfg.limits.v_a_max));
+    let (motor_dt, piezo_dt) = (dt * motor_div as f64, dt * piezo_div as f64);
+    let plant = Model::new(cfg.plant.unwrap_or(cfg.arm));
+    let mut ctrl = build(cfg, traj, motor_dt, piezo_dt)?;
+    let mut rng = Rng::new(cfg.sensors.seed);
 
     let th0 = traj.sample(0.0).q;
     let mut x = State::rest(Vector4::new(f64::from(th0.x), f64::from(th0.y), 0.0, 0.0));
     let steps = (cfg.duration / dt).round() as u64;
-    let motor_dt = dt * motor_div as f64;
 
     let mut sum = Summary::default();
     let (mut l2_delta, mut l2_error, mut l2_tip) =
@@ -219,24 +432,62 @@ pub fn simulate(
     let mut tail_delta = TailMean::<f64, 2>::new(cfg.duration, cfg.tail_window);
     let mut trace = Vec::new();
     let (mut tau, mut v_a, mut v_f) = (Vector2::<f64>::zeros(), 0.0_f64, 0.0_f64);
+    // Measurements held back one period when `sensors.delay`.
+    let mut held: Option<(State<f64>, f64)> = None;
 
     for k in 0..steps {
         let t = k as f64 * dt;
         if k % piezo_div == 0 {
-            v_f = cfg.patch.film_voltage(&x.q);
-            v_a = piezo
-                .as_mut()
-                .map_or(0.0, |p| f64::from(p.step(v_f as f32)));
+            v_f = cfg.sensors.film(cfg.patch.film_voltage(&x.q), &mut rng);
+            let cmd = match &mut ctrl {
+                Loop::Full { piezo, .. } => piezo
+                    .as_mut()
+                    .map_or(0.0, |p| f64::from(p.step(v_f as f32))),
+                Loop::Observer(c) => f64::from(c.piezo_step(v_f as f32)),
+            };
+            v_a = match cfg.sensors.piezo_slew {
+                Some(rate) => v_a + (cmd - v_a).clamp(-rate * piezo_dt, rate * piezo_dt),
+                None => cmd,
+            };
         }
         if k % motor_div == 0 {
             let target = traj.sample(t as f32);
-            let q = x.q.cast::<f32>();
-            let qd = x.qd.cast::<f32>();
-            let out = motor
-                .step(t as f32, &q, &qd, &target)
-                .map_err(|fault| SimError::Fault { fault, t })?;
-            tau = out.tau.cast::<f64>();
-            let err = out.error.cast::<f64>();
+            let (seen, seen_v_f) = if cfg.sensors.delay {
+                held.replace((x, v_f)).unwrap_or((x, v_f))
+            } else {
+                (x, v_f)
+            };
+            let (new_tau, delta_seen) = match &mut ctrl {
+                Loop::Full { motor, .. } => {
+                    let out = motor
+                        .step(
+                            t as f32,
+                            &seen.q.cast::<f32>(),
+                            &seen.qd.cast::<f32>(),
+                            &target,
+                        )
+                        .map_err(|fault| SimError::Fault { fault, t })?;
+                    (out.tau.cast::<f64>(), Vector2::new(seen.q.z, seen.q.w))
+                }
+                Loop::Observer(c) => {
+                    let s = &cfg.sensors;
+                    let y = Measurement {
+                        theta: Vector2::new(s.angle(seen.q.x) as f32, s.angle(seen.q.y) as f32),
+                        v_f: seen_v_f as f32,
+                    };
+                    let rep = c.motor_step(t as f32, Some(&y));
+                    if let Some(fault) = c.fault() {
+                        return Err(SimError::Fault { fault, t });
+                    }
+                    let (q_hat, _) = rep.estimate;
+                    (
+                        rep.command.tau.cast::<f64>(),
+                        Vector2::new(f64::from(q_hat.z), f64::from(q_hat.w)),
+                    )
+                }
+            };
+            tau = new_tau;
+            let err = Vector2::new(x.q.x, x.q.y) - target.q.cast::<f64>();
             let delta = Vector2::new(x.q.z, x.q.w);
             let tip = plant.tip_deflection(&x.q);
             l2_delta.add(&delta, motor_dt);
@@ -244,6 +495,7 @@ pub fn simulate(
             l2_tip.add(&nalgebra::Vector1::new(tip), motor_dt);
             tail_err.add(t, &err, motor_dt);
             tail_delta.add(t, &delta, motor_dt);
+            sum.max_error = sum.max_error.max(err.abs().max());
             for i in 0..2 {
                 sum.max_tau[i] = sum.max_tau[i].max(tau[i].abs());
             }
@@ -254,6 +506,7 @@ pub fn simulate(
                     t,
                     x,
                     q_d: target.q.cast::<f64>(),
+                    delta_seen,
                     tau,
                     v_a,
                     v_f,
@@ -262,7 +515,7 @@ pub fn simulate(
             }
         }
         let u = Vector4::new(tau.x, tau.y, 0.0, 0.0) + cfg.patch.generalized_force(v_a);
-        x = rk4_step(&plant, &x, &u, dt).map_err(SimError::Plant)?;
+        x = rk4_step(&plant, &x, &u, dt).ok_or(SimError::Plant { t })?;
     }
     sum.l2_delta = l2_delta.value();
     sum.l2_error = l2_error.value();

@@ -6,9 +6,9 @@ use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
 use flexarm_core::model::Model;
 use flexarm_core::params::{ArmParams, Gains, Limits};
+use flexarm_core::plant::{State, rk4_step};
 use flexarm_core::trajectory::JointTarget;
 use flexarm_core::{Vector2, Vector4};
-use flexarm_sim::plant::{State, energy, rk4_step};
 
 /// Energy left after 0.5 s, as a fraction of the initial energy, starting at rest at
 /// θ = (0.5, 0.5) rad with the modal deflection `delta0`. Plant step 0.1 ms, motor loop
@@ -27,7 +27,7 @@ fn energy_left(law: MotorLaw, piezo: Option<PiezoGains<f32>>, delta0: Vector2<f6
     let mut pz = piezo.map(|g| PiezoLaw::new(&g, 1e-4, limits.v_a_max));
     let hold = JointTarget::rest(Vector2::new(0.5f32, 0.5));
     let mut x = State::rest(Vector4::new(0.5, 0.5, delta0.x, delta0.y));
-    let e0 = energy(&plant, &x);
+    let e0 = x.energy(&plant);
     let mut tau = Vector2::<f64>::zeros();
     for k in 0..5000 {
         let v_a = pz
@@ -44,7 +44,7 @@ fn energy_left(law: MotorLaw, piezo: Option<PiezoGains<f32>>, delta0: Vector2<f6
         let u = Vector4::new(tau.x, tau.y, 0.0, 0.0) + patch.generalized_force(v_a);
         x = rk4_step(&plant, &x, &u, 1e-4).unwrap();
     }
-    energy(&plant, &x) / e0
+    x.energy(&plant) / e0
 }
 
 #[test]

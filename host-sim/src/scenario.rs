@@ -1,0 +1,445 @@
+//! Scenario files (TOML): what to simulate, in SI units, every key optional but the trajectory.
+//!
+//! ```toml
+//! name = "trapezoid"              # used for output file names
+//! duration = 5.0                  # run length [s]
+//!
+//! [trajectory]                    # kind = "trapezoid" | "circle" | "hold"
+//! kind = "trapezoid"
+//! start = [0.0, 0.0]              # θ(0) [rad]
+//! amplitude = [1.5708, 1.5708]    # joint displacement [rad]
+//! move_time = 2.0                 # duration of the move [s]
+//! ramp_time = 0.5                 # constant-acceleration time at each end [s]
+//!
+//! [controller]
+//! law = "tracking"                # "tracking" (Eq. 7) | "robust" (Eq. 16)
+//! piezo = true                    # piezo loop on (Eq. 17)
+//! k_c = 30.0                      # piezo gain [s]
+//! state = "full"                  # "full" (true state) | "observer" (firmware controller)
+//! ```
+//!
+//! The full list of keys, with units, is in `host-sim/scenarios/README.md`; unknown keys are
+//! refused with the line they stand on.
+
+use std::path::Path;
+
+use flexarm_core::control::motor::MotorLaw;
+use flexarm_core::control::piezo::PiezoGains;
+use flexarm_core::kinematics::{Elbow, Planar2};
+use flexarm_core::params::ModalData;
+use flexarm_core::trajectory::{Circle, JointTrajectory, Profile, Trapezoid};
+use flexarm_core::{Vector2, Vector4};
+use serde::Deserialize;
+
+use crate::sim::{Rates, SimConfig, StateSource};
+
+/// A readable, one-line error about a scenario file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ScenarioError(pub String);
+
+impl core::fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ScenarioError {}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    name: Option<String>,
+    duration: Option<f64>,
+    tail_window: Option<f64>,
+    trajectory: TrajectorySpec,
+    #[serde(default)]
+    controller: ControllerSpec,
+    #[serde(default)]
+    rates: RatesSpec,
+    #[serde(default)]
+    limits: LimitsSpec,
+    #[serde(default)]
+    arm: ArmSpec,
+    #[serde(default)]
+    sensors: SensorsSpec,
+    /// A `[piezo]` table as written by `flexarm-sim optimize` (read by `flexarm_beam`).
+    piezo: Option<toml::Table>,
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+enum TrajectorySpec {
+    Trapezoid {
+        start: Option<[f64; 2]>,
+        amplitude: Option<[f64; 2]>,
+        move_time: Option<f64>,
+        ramp_time: Option<f64>,
+    },
+    Circle {
+        centre: Option<[f64; 2]>,
+        radius: Option<f64>,
+        period: Option<f64>,
+        ramp_time: Option<f64>,
+        start_phase: Option<f64>,
+        clockwise: Option<bool>,
+        elbow: Option<ElbowSpec>,
+        margin: Option<f64>,
+    },
+    Hold {
+        angles: [f64; 2],
+    },
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum ElbowSpec {
+    Positive,
+    Negative,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct ControllerSpec {
+    law: Option<LawSpec>,
+    piezo: Option<bool>,
+    k_c: Option<f64>,
+    cutoff_hz: Option<f64>,
+    kp: Option<[f64; 4]>,
+    lambda: Option<[f64; 4]>,
+    d_delta: Option<[f64; 2]>,
+    state: Option<StateSpec>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum LawSpec {
+    Tracking,
+    Robust,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum StateSpec {
+    Full,
+    Observer,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RatesSpec {
+    plant_dt: Option<f64>,
+    motor_hz: Option<f64>,
+    piezo_hz: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct LimitsSpec {
+    tau_max: Option<[f64; 2]>,
+    v_a_max: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct ArmSpec {
+    a1: Option<f64>,
+    a2: Option<f64>,
+    m1: Option<f64>,
+    m2: Option<f64>,
+    m_h2: Option<f64>,
+    i_1: Option<f64>,
+    i_h1: Option<f64>,
+    i_h2: Option<f64>,
+    i_2_extra: Option<f64>,
+    frequency_hz: Option<[f64; 2]>,
+    zeta: Option<[f64; 2]>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct SensorsSpec {
+    realistic: Option<bool>,
+    encoder_counts: Option<f64>,
+    adc_bits: Option<u32>,
+    adc_range: Option<f64>,
+    film_noise: Option<f64>,
+    delay: Option<bool>,
+    piezo_slew: Option<f64>,
+    seed: Option<u64>,
+}
+
+/// A loaded scenario.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    /// Name for output files.
+    pub name: String,
+    /// The run's configuration.
+    pub config: SimConfig,
+    /// The desired motion.
+    pub trajectory: JointTrajectory<f32>,
+}
+
+/// Reads and checks a scenario file.
+pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| ScenarioError(format!("{}: {e}", path.display())))?;
+    parse(&text).map_err(|e| ScenarioError(format!("{}: {}", path.display(), e.0)))
+}
+
+/// One line from a TOML error: its line number and message.
+fn toml_error(text: &str, e: &toml::de::Error) -> ScenarioError {
+    let line = e
+        .span()
+        .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+    let msg = e.message().trim().replace('\n', " ");
+    ScenarioError(match line {
+        Some(l) => format!("line {l}: {msg}"),
+        None => msg,
+    })
+}
+
+fn err<T>(msg: impl Into<String>) -> Result<T, ScenarioError> {
+    Err(ScenarioError(msg.into()))
+}
+
+fn positive(name: &str, x: f64) -> Result<f64, ScenarioError> {
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        err(format!("`{name}` = {x} must be a finite number > 0"))
+    }
+}
+
+/// Parses a scenario from TOML text.
+pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
+    let f: File = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
+    let mut cfg = SimConfig::default();
+
+    // Arm.
+    let a = &f.arm;
+    let arm = &mut cfg.arm;
+    for (dst, src) in [
+        (&mut arm.a1, a.a1),
+        (&mut arm.a2, a.a2),
+        (&mut arm.m1, a.m1),
+        (&mut arm.m2, a.m2),
+        (&mut arm.m_h2, a.m_h2),
+        (&mut arm.i_1, a.i_1),
+        (&mut arm.i_h1, a.i_h1),
+        (&mut arm.i_h2, a.i_h2),
+        (&mut arm.i_2_extra, a.i_2_extra),
+    ] {
+        if let Some(v) = src {
+            *dst = v;
+        }
+    }
+    let omega = a.frequency_hz.map_or(arm.modes.omega, |f| {
+        Vector2::new(f[0], f[1]) * std::f64::consts::TAU
+    });
+    let zeta = a.zeta.map_or(arm.modes.zeta, |z| Vector2::new(z[0], z[1]));
+    if a.m2.is_some() || a.a2.is_some() || a.frequency_hz.is_some() || a.zeta.is_some() {
+        if !(arm.m2 > 0.0 && arm.a2 > 0.0) {
+            return err("`arm.m2` and `arm.a2` must be > 0");
+        }
+        arm.modes = ModalData::uniform(arm.m2, arm.a2, omega, zeta);
+    }
+    arm.validate()
+        .map_err(|e| ScenarioError(format!("[arm]: {e}")))?;
+    cfg.patch = flexarm_core::control::piezo::PiezoPatch::uniform(
+        &flexarm_core::control::piezo::PiezoMaterial::default(),
+        arm.m2,
+        arm.a2,
+        cfg.patch.x_a,
+        cfg.patch.l_a,
+    );
+
+    // Piezo fragment from the optimizer.
+    let mut k_c = PiezoGains::<f32>::default().k_c as f64;
+    if f.piezo.is_some() {
+        let choice = flexarm_beam::fragment::read_piezo(text, cfg.arm.a2)
+            .map_err(|e| ScenarioError(e.to_string()))?;
+        cfg.patch = choice.patch;
+        k_c = choice
+            .k_c_paper_modes
+            .filter(|_| choice.modal_data.is_none())
+            .unwrap_or(choice.k_c);
+        if let Some(md) = choice.modal_data {
+            cfg.arm.modes = md;
+        }
+    }
+
+    // Controller.
+    let c = &f.controller;
+    cfg.law = match c.law {
+        Some(LawSpec::Robust) => MotorLaw::Robust,
+        _ => MotorLaw::Tracking,
+    };
+    cfg.state = match c.state {
+        Some(StateSpec::Observer) => StateSource::Observer,
+        _ => StateSource::Full,
+    };
+    let v4 = |v: [f64; 4]| Vector4::new(v[0] as f32, v[1] as f32, v[2] as f32, v[3] as f32);
+    if let Some(kp) = c.kp {
+        cfg.gains.kp = v4(kp);
+    }
+    if let Some(l) = c.lambda {
+        cfg.gains.lambda = v4(l);
+    }
+    if let Some(d) = c.d_delta {
+        cfg.gains.d_delta = Vector2::new(d[0] as f32, d[1] as f32);
+    }
+    cfg.gains
+        .validate()
+        .map_err(|e| ScenarioError(format!("[controller]: {e}")))?;
+    let k_c = c.k_c.unwrap_or(k_c);
+    let cutoff = c
+        .cutoff_hz
+        .unwrap_or(PiezoGains::<f32>::default().cutoff_hz as f64);
+    positive("controller.k_c", k_c)?;
+    positive("controller.cutoff_hz", cutoff)?;
+    cfg.piezo = c.piezo.unwrap_or(false).then_some(PiezoGains {
+        k_c: k_c as f32,
+        cutoff_hz: cutoff as f32,
+    });
+
+    // Rates, limits, timing.
+    let r = &f.rates;
+    let d = Rates::default();
+    cfg.rates = Rates {
+        plant_dt: r.plant_dt.unwrap_or(d.plant_dt),
+        motor_hz: r.motor_hz.unwrap_or(d.motor_hz),
+        piezo_hz: r.piezo_hz.unwrap_or(d.piezo_hz),
+    };
+    cfg.rates
+        .divisors()
+        .map_err(|e| ScenarioError(format!("[rates]: {e}")))?;
+    if let Some(t) = f.limits.tau_max {
+        cfg.limits.tau_max = Vector2::new(t[0] as f32, t[1] as f32);
+    }
+    if let Some(v) = f.limits.v_a_max {
+        cfg.limits.v_a_max = v as f32;
+    }
+    cfg.limits
+        .validate()
+        .map_err(|e| ScenarioError(format!("[limits]: {e}")))?;
+    cfg.duration = positive("duration", f.duration.unwrap_or(cfg.duration))?;
+    cfg.tail_window = positive("tail_window", f.tail_window.unwrap_or(cfg.tail_window))?;
+    if cfg.tail_window > cfg.duration {
+        return err(format!(
+            "`tail_window` = {} s is longer than `duration` = {} s",
+            cfg.tail_window, cfg.duration
+        ));
+    }
+
+    // Sensors.
+    let s = &f.sensors;
+    let mut sens = if s.realistic.unwrap_or(false) {
+        crate::sim::Sensors::realistic()
+    } else {
+        crate::sim::Sensors::default()
+    };
+    if let Some(n) = s.encoder_counts {
+        sens.encoder_counts = Some(positive("sensors.encoder_counts", n)?);
+    }
+    if let Some(b) = s.adc_bits {
+        if !(1..=24).contains(&b) {
+            return err(format!("`sensors.adc_bits` = {b} must be 1 to 24"));
+        }
+        sens.adc_bits = Some(b);
+    }
+    if let Some(r) = s.adc_range {
+        sens.adc_range = positive("sensors.adc_range", r)?;
+    }
+    if let Some(n) = s.film_noise {
+        if !(n.is_finite() && n >= 0.0) {
+            return err(format!("`sensors.film_noise` = {n} must be >= 0"));
+        }
+        sens.film_noise = n;
+    }
+    if let Some(dl) = s.delay {
+        sens.delay = dl;
+    }
+    if let Some(r) = s.piezo_slew {
+        sens.piezo_slew = Some(positive("sensors.piezo_slew", r)?);
+    }
+    if let Some(seed) = s.seed {
+        sens.seed = seed;
+    }
+    cfg.sensors = sens;
+
+    // Trajectory.
+    let kin = Planar2 {
+        a1: cfg.arm.a1 as f32,
+        a2: cfg.arm.a2 as f32,
+    };
+    let terr = |e: flexarm_core::TrajectoryError| ScenarioError(format!("[trajectory]: {e}"));
+    let trajectory = match f.trajectory {
+        TrajectorySpec::Trapezoid {
+            start,
+            amplitude,
+            move_time,
+            ramp_time,
+        } => {
+            let p = Trapezoid::<f32>::paper();
+            let v2 = |v: [f64; 2]| Vector2::new(v[0] as f32, v[1] as f32);
+            let profile = Profile::new(
+                move_time.unwrap_or(2.0) as f32,
+                ramp_time.unwrap_or(0.5) as f32,
+            )
+            .map_err(terr)?;
+            let tr = Trapezoid {
+                start: start.map_or(p.start, v2),
+                amplitude: amplitude.map_or(p.amplitude, v2),
+                profile,
+            };
+            if !(tr
+                .start
+                .iter()
+                .chain(tr.amplitude.iter())
+                .all(|x| x.is_finite()))
+            {
+                return err("[trajectory]: `start` and `amplitude` must be finite");
+            }
+            JointTrajectory::Trapezoid(tr)
+        }
+        TrajectorySpec::Circle {
+            centre,
+            radius,
+            period,
+            ramp_time,
+            start_phase,
+            clockwise,
+            elbow,
+            margin,
+        } => {
+            let centre = centre.unwrap_or([0.65, 0.0]);
+            let circle = Circle::new(
+                kin,
+                Vector2::new(centre[0] as f32, centre[1] as f32),
+                radius.unwrap_or(0.2) as f32,
+                start_phase.unwrap_or(std::f64::consts::FRAC_PI_2) as f32,
+                clockwise.unwrap_or(true),
+                Profile::new(
+                    period.unwrap_or(4.0) as f32,
+                    ramp_time.unwrap_or(0.5) as f32,
+                )
+                .map_err(terr)?,
+                match elbow {
+                    Some(ElbowSpec::Negative) => Elbow::Negative,
+                    _ => Elbow::Positive,
+                },
+                margin.unwrap_or(0.05) as f32,
+            )
+            .map_err(terr)?;
+            JointTrajectory::Circle(circle)
+        }
+        TrajectorySpec::Hold { angles } => {
+            JointTrajectory::Hold(Vector2::new(angles[0] as f32, angles[1] as f32))
+        }
+    };
+    Ok(Scenario {
+        name: f.name.unwrap_or_else(|| "scenario".into()),
+        config: cfg,
+        trajectory,
+    })
+}

@@ -1,0 +1,92 @@
+//! The command line: scenario files run, bad input gets one readable line and a non-zero exit.
+
+use std::process::Command;
+
+fn sim(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_flexarm-sim"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+fn scratch(name: &str, text: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("flexarm-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn shipped_scenarios_run() {
+    let out = std::env::temp_dir().join(format!("flexarm-cli-out-{}", std::process::id()));
+    for f in ["trapezoid", "circle", "trapezoid_observer"] {
+        let path = format!("{}/scenarios/{f}.toml", env!("CARGO_MANIFEST_DIR"));
+        let (ok, stdout, stderr) = sim(&[
+            "run",
+            &path,
+            "--out",
+            out.to_str().unwrap(),
+            "--no-plots",
+            "--duration",
+            "1",
+        ]);
+        assert!(ok, "{f}: {stderr}");
+        assert!(stdout.contains("Eq. 37"), "{stdout}");
+        assert!(out.join(format!("{f}_scenario.csv")).exists());
+    }
+}
+
+#[test]
+fn bad_input_is_one_readable_line() {
+    let cases = [
+        (
+            "unknown.toml",
+            "[trajectory]\nkind = \"trapezoid\"\nspeed = 3\n",
+            "unknown field `speed`",
+        ),
+        (
+            "range.toml",
+            "[trajectory]\nkind = \"trapezoid\"\n[sensors]\nadc_bits = 40\n",
+            "adc_bits",
+        ),
+        (
+            "mass.toml",
+            "[trajectory]\nkind = \"trapezoid\"\n[arm]\nm1 = -2\n",
+            "m1",
+        ),
+        (
+            "circle.toml",
+            "[trajectory]\nkind = \"circle\"\ncentre = [0.4, 0.0]\nmargin = 0.0\n",
+            "unreachable",
+        ),
+        (
+            "rates.toml",
+            "[trajectory]\nkind = \"trapezoid\"\n[rates]\npiezo_hz = 7000\n",
+            "incompatible rates",
+        ),
+        ("syntax.toml", "[trajectory\nkind = 1\n", "line"),
+    ];
+    for (name, text, expect) in cases {
+        let p = scratch(name, text);
+        let (ok, _, stderr) = sim(&["run", p.to_str().unwrap(), "--no-plots"]);
+        assert!(!ok, "{name} must fail");
+        let lines: Vec<&str> = stderr.lines().collect();
+        assert_eq!(lines.len(), 1, "{name}: one line, got {stderr:?}");
+        assert!(
+            lines[0].starts_with("error: ") && lines[0].contains(expect),
+            "{name}: {stderr}"
+        );
+        assert!(!stderr.contains("panicked"));
+    }
+    let (ok, _, stderr) = sim(&["run", "/no/such/file.toml"]);
+    assert!(
+        !ok && stderr.starts_with("error: ") && stderr.lines().count() == 1,
+        "{stderr}"
+    );
+}
