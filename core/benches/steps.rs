@@ -6,14 +6,13 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use flexarm_core::control::motor::{MotorController, MotorLaw};
-use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+use flexarm_core::control::piezo::{PiezoGains, PiezoLaw};
 use flexarm_core::control::tracking::eq7;
 use flexarm_core::controller::Controller;
 use flexarm_core::model::Model;
-use flexarm_core::observer::{Measurement, Observer, film_map};
+use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::params::{ArmParams, Gains, Limits};
-use flexarm_core::supervisor::SensorLimits;
 use flexarm_core::trajectory::{JointTarget, JointTrajectory, Trapezoid};
 use flexarm_core::{Vector2, Vector4};
 use std::hint::black_box;
@@ -71,16 +70,12 @@ fn bench(c: &mut Criterion) {
             }
         })
     });
-    let patch = PiezoPatch::<f32>::paper();
-    let mut ctrl = Controller::new(
-        motor,
-        piezo,
-        patch,
-        Observer::new(gain(&GAIN_1KHZ), film_map(&patch), 1e-3, Vector2::zeros()),
-        SensorLimits::default(),
+    let mut ctrl = Controller::paper(
+        MotorLaw::Robust,
         JointTrajectory::Trapezoid(Trapezoid::paper()),
+        1e-4,
         1e-3,
-        3,
+        gain(&GAIN_1KHZ),
     );
     c.bench_function(
         "complete motor step with observer and checks (one step)",

@@ -11,10 +11,12 @@
 //! Every output passes the [`SafetyLatch`]: after any fault both loops command the safe state
 //! (zero torque, zero voltage, amplifiers disabled) until [`Controller::reset`].
 
-use crate::control::motor::{MotorController, MotorOutput};
-use crate::control::piezo::{PiezoLaw, PiezoPatch};
+use crate::control::motor::{MotorController, MotorLaw, MotorOutput};
+use crate::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
 use crate::fault::Fault;
-use crate::observer::{Measurement, Observer};
+use crate::model::Model;
+use crate::observer::{Gain, Measurement, Observer, film_map};
+use crate::params::{ArmParams, Gains, Limits};
 use crate::real::Real;
 use crate::supervisor::{Command, SafetyLatch, SensorLimits, Staleness};
 use crate::trajectory::JointTrajectory;
@@ -100,6 +102,37 @@ impl<T: Real> Controller<T> {
             previous: None,
             v_a: T::zero(),
         }
+    }
+
+    /// The paper's arm, gains and patch with our defaults (`docs/model.md`): the controller the
+    /// firmware runs, for the given law, trajectory, loop periods [s] and observer gain (designed
+    /// for `motor_period`, see [`crate::observer_gains`]). Three motor periods without a sample
+    /// trip [`Fault::Stale`].
+    pub fn paper(
+        law: MotorLaw,
+        trajectory: JointTrajectory<T>,
+        piezo_period: T,
+        motor_period: T,
+        observer_gain: Gain<T>,
+    ) -> Self {
+        let limits = Limits::default();
+        let patch = PiezoPatch::paper();
+        let theta0 = trajectory.sample(T::zero()).q;
+        Self::new(
+            MotorController {
+                model: Model::new(ArmParams::default()),
+                gains: Gains::default(),
+                limits,
+                law,
+            },
+            PiezoLaw::new(&PiezoGains::default(), piezo_period, limits.v_a_max),
+            patch,
+            Observer::new(observer_gain, film_map(&patch), motor_period, theta0),
+            SensorLimits::default(),
+            trajectory,
+            motor_period,
+            3,
+        )
     }
 
     /// The latched fault, if any.

@@ -25,6 +25,21 @@ fn state() -> impl Strategy<Value = (Vector4<f64>, Vector4<f64>)> {
     })
 }
 
+/// Composite Simpson's rule of `f` over `[0, b]` with `n` (even) intervals.
+fn simpson(f: &dyn Fn(f64) -> f64, b: f64, n: usize) -> f64 {
+    let h = b / n as f64;
+    let weight = |i: usize| {
+        if i == 0 || i == n {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        }
+    };
+    (0..=n).map(|i| weight(i) * f(i as f64 * h)).sum::<f64>() * h / 3.0
+}
+
 /// `Ḃ = dB(q + h q̇)/dh` by central differences.
 fn b_dot(m: &Model<f64>, q: &Vector4<f64>, qd: &Vector4<f64>) -> Matrix4<f64> {
     let h = 1e-6;
@@ -55,25 +70,7 @@ fn uniform_modes_have_unit_modal_mass_and_closed_form_integrals() {
     let (m2, a2) = (0.3, 0.7);
     let rho = m2 / a2;
     let modes = [UniformMode::new(0, m2, a2), UniformMode::new(1, m2, a2)];
-    // Composite Simpson over 2000 intervals.
-    let n = 2000;
-    let simpson = |f: &dyn Fn(f64) -> f64| {
-        let h = a2 / n as f64;
-        (0..=n)
-            .map(|i| {
-                let w = if i == 0 || i == n {
-                    1.0
-                } else if i % 2 == 1 {
-                    4.0
-                } else {
-                    2.0
-                };
-                w * f(i as f64 * h)
-            })
-            .sum::<f64>()
-            * h
-            / 3.0
-    };
+    let simpson = |f: &dyn Fn(f64) -> f64| simpson(f, a2, 2000);
     for (j, m) in modes.iter().enumerate() {
         assert!(
             m.phi(0.0).abs() < 1e-12 && m.slope(0.0).abs() < 1e-12,
@@ -114,23 +111,7 @@ fn kinetic_energy_by_quadrature(p: &ArmParams<f64>, q: &Vector4<f64>, qd: &Vecto
         let (a, b) = (point(&(q + qd * h), x), point(&(q - qd * h), x));
         ((a[0] - b[0]) / (2.0 * h)).powi(2) + ((a[1] - b[1]) / (2.0 * h)).powi(2)
     };
-    let n = 400;
-    let dx = p.a2 / n as f64;
-    let link2: f64 = (0..=n)
-        .map(|i| {
-            let w = if i == 0 || i == n {
-                1.0
-            } else if i % 2 == 1 {
-                4.0
-            } else {
-                2.0
-            };
-            w * speed2(i as f64 * dx)
-        })
-        .sum::<f64>()
-        * dx
-        / 3.0
-        * (p.m2 / p.a2);
+    let link2 = simpson(&speed2, p.a2, 400) * (p.m2 / p.a2);
     let hub1 = p.i_h1 + p.i_1 + p.m1 * p.a1 * p.a1 / 4.0 + p.m_h2 * p.a1 * p.a1;
     0.5 * (hub1 * qd[0] * qd[0] + (p.i_h2 + p.i_2_extra) * (qd[0] + qd[1]).powi(2) + link2)
 }

@@ -33,8 +33,6 @@ pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &flexarm_core::observer_gains::GAIN_10
 #[cfg(not(feature = "qemu"))]
 pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &flexarm_core::observer_gains::GAIN_1KHZ;
 
-/// Motor periods tolerated without a fresh sample before [`flexarm_core::Fault::Stale`].
-pub const STALE_LIMIT: u32 = 3;
 /// Motor steps between two telemetry samples.
 pub const TELEMETRY_EVERY: u32 = MOTOR_HZ / 10;
 

@@ -49,13 +49,9 @@ use flexarm_core::controller::Controller;
 mod app {
     use core::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
-    use flexarm_core::control::motor::{MotorController, MotorLaw};
-    use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
-    use flexarm_core::model::Model;
-    use flexarm_core::observer::{Measurement, Observer, film_map};
+    use flexarm_core::control::motor::MotorLaw;
+    use flexarm_core::observer::Measurement;
     use flexarm_core::observer_gains::gain;
-    use flexarm_core::params::{ArmParams, Gains, Limits};
-    use flexarm_core::supervisor::SensorLimits;
     use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
     use flexarm_core::{Fault, Vector2};
     use heapless::spsc::{Consumer, Producer};
@@ -162,30 +158,14 @@ mod app {
             cp.DWT.enable_cycle_counter();
         }
 
-        let arm = ArmParams::<f32>::default();
-        let limits = Limits::<f32>::default();
-        let patch = PiezoPatch::<f32>::paper();
         let piezo_period = 1.0 / PIEZO_HZ as f32;
         let motor_period = 1.0 / MOTOR_HZ as f32;
-        let mut ctrl = Controller::new(
-            MotorController {
-                model: Model::new(arm),
-                gains: Gains::default(),
-                limits,
-                law: MotorLaw::Tracking,
-            },
-            PiezoLaw::new(&PiezoGains::default(), piezo_period, limits.v_a_max),
-            patch,
-            Observer::new(
-                gain(config::OBSERVER_GAIN),
-                film_map(&patch),
-                motor_period,
-                Vector2::zeros(),
-            ),
-            SensorLimits::default(),
+        let mut ctrl = Controller::paper(
+            MotorLaw::Tracking,
             JointTrajectory::Trapezoid(Trapezoid::paper()),
+            piezo_period,
             motor_period,
-            config::STALE_LIMIT,
+            gain(config::OBSERVER_GAIN),
         );
         #[cfg(feature = "hw")]
         if reset_by_watchdog {
@@ -195,9 +175,10 @@ mod app {
         #[cfg(feature = "qemu")]
         let board = {
             use flexarm_core::simarm::{SensorModel, SimArm};
+            // The simulated arm is the controller's own model: the paper's arm.
             let sim = SimArm::new(
-                Model::new(arm),
-                patch,
+                ctrl.motor.model,
+                ctrl.patch,
                 flexarm_core::Vector4::zeros(),
                 SensorModel::default(),
             );

@@ -15,22 +15,13 @@ use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let limits = Limits::default();
-    let patch = PiezoPatch::<f32>::paper();
-    let mut c = Controller::new(
-        MotorController {
-            model: Model::new(ArmParams::default()),
-            gains: Gains::default(),
-            limits,
-            law: MotorLaw::Robust,
-        },
-        PiezoLaw::new(&PiezoGains::default(), 1e-4, limits.v_a_max),
-        patch,
-        Observer::new(gain(&GAIN_1KHZ), film_map(&patch), 1e-3, Vector2::zeros()),
-        SensorLimits::default(),
+    let limits = Limits::<f32>::default();
+    let mut c = Controller::paper(
+        MotorLaw::Robust,
         JointTrajectory::Trapezoid(Trapezoid::paper()),
+        1e-4,
         1e-3,
-        3,
+        gain(&GAIN_1KHZ),
     );
     // Each 17-byte chunk: time, θ1, θ2, V_f (f32, little endian) and a flag byte
     // (bit 0: a new sample arrived; bit 1: reset the latch first).

@@ -4,15 +4,14 @@
 //! every `ratio` piezo periods. These runs justify the bounds the QEMU run checks
 //! (`docs/firmware.md`): `cargo test -p flexarm-tests --test firmware_loop -- --nocapture`.
 
-use flexarm_core::control::motor::{MotorController, MotorLaw};
-use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+use flexarm_core::control::motor::MotorLaw;
+use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::controller::Controller;
 use flexarm_core::model::Model;
-use flexarm_core::observer::{Measurement, Observer, film_map};
+use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, GAIN_100HZ, gain};
-use flexarm_core::params::{ArmParams, Gains, Limits};
+use flexarm_core::params::ArmParams;
 use flexarm_core::simarm::{SensorModel, SimArm};
-use flexarm_core::supervisor::SensorLimits;
 use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
 use flexarm_core::{Vector2, Vector4};
 
@@ -28,24 +27,9 @@ fn run(piezo_hz: f32, ratio: u32, table: &[[f32; 3]; 8], law: MotorLaw, seconds:
     let dt_p = 1.0 / piezo_hz;
     let dt_m = dt_p * ratio as f32;
     let arm = ArmParams::<f32>::default();
-    let limits = Limits::default();
     let patch = PiezoPatch::<f32>::paper();
     let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
-    let mut ctrl = Controller::new(
-        MotorController {
-            model: Model::new(arm),
-            gains: Gains::default(),
-            limits,
-            law,
-        },
-        PiezoLaw::new(&PiezoGains::default(), dt_p, limits.v_a_max),
-        patch,
-        Observer::new(gain(table), film_map(&patch), dt_m, Vector2::zeros()),
-        SensorLimits::default(),
-        traj,
-        dt_m,
-        3,
-    );
+    let mut ctrl = Controller::paper(law, traj, dt_p, dt_m, gain(table));
     let mut sim = SimArm::new(
         Model::new(arm),
         patch,

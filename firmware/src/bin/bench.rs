@@ -17,15 +17,14 @@ use core::hint::black_box;
 use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
 use defmt_semihosting as _;
 use flexarm_core::control::motor::{MotorController, MotorLaw};
-use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::control::tracking::eq7_torques;
 use flexarm_core::controller::Controller;
 use flexarm_core::model::Model;
-use flexarm_core::observer::{Measurement, Observer, film_map};
+use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::params::{ArmParams, Gains, Limits};
 use flexarm_core::simarm::{SensorModel, SimArm};
-use flexarm_core::supervisor::SensorLimits;
 use flexarm_core::trajectory::{JointTarget, JointTrajectory, Trapezoid};
 use flexarm_core::{Vector2, Vector4};
 
@@ -98,22 +97,12 @@ fn measure(states: &[State], overhead: u32, mut f: impl FnMut(&State)) -> Stat {
 }
 
 fn controller(law: MotorLaw) -> Controller<f32> {
-    let limits = Limits::default();
-    let patch = PiezoPatch::<f32>::paper();
-    Controller::new(
-        MotorController {
-            model: Model::new(ArmParams::default()),
-            gains: Gains::default(),
-            limits,
-            law,
-        },
-        PiezoLaw::new(&PiezoGains::default(), 1e-4, limits.v_a_max),
-        patch,
-        Observer::new(gain(&GAIN_1KHZ), film_map(&patch), 1e-3, Vector2::zeros()),
-        SensorLimits::default(),
+    Controller::paper(
+        law,
         JointTrajectory::Trapezoid(Trapezoid::paper()),
+        1e-4,
         1e-3,
-        3,
+        gain(&GAIN_1KHZ),
     )
 }
 
