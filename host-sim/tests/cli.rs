@@ -90,3 +90,47 @@ fn bad_input_is_one_readable_line() {
         "{stderr}"
     );
 }
+
+#[test]
+fn optimized_patch_flows_into_a_scenario() {
+    let out = std::env::temp_dir().join(format!("flexarm-cli-opt-{}", std::process::id()));
+    // A coarse grid, no sensitivity study: the flow is under test here, not the optimum.
+    let config = scratch(
+        "coarse.toml",
+        "[optimize]\nstep = 0.05\nk_c = [10.0, 30.0, 100.0]\nrefine = false\n[sensitivity]\nenabled = false\n",
+    );
+    let (ok, stdout, stderr) = sim(&[
+        "optimize",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("x_a"), "{stdout}");
+    let fragment = std::fs::read_to_string(out.join("piezo.toml")).unwrap();
+    let text = format!(
+        "name = \"optimized\"\nduration = 1.0\ntail_window = 0.5\n[trajectory]\nkind = \"trapezoid\"\n[controller]\npiezo = true\n\n{fragment}"
+    );
+    let scenario = scratch("optimized.toml", &text);
+    let sc = flexarm_sim::scenario::load(&scenario).unwrap();
+    let x_a: f64 = fragment
+        .lines()
+        .find_map(|l| l.strip_prefix("x_a = "))
+        .and_then(|v| v.split_whitespace().next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(
+        sc.config.patch.x_a, x_a,
+        "the scenario runs with the optimized patch"
+    );
+    let (ok, _, stderr) = sim(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(ok, "{stderr}");
+}
