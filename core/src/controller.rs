@@ -84,6 +84,7 @@ impl<T: Real> Controller<T> {
         let valid = motor.model.params.validate().is_ok()
             && motor.gains.validate().is_ok()
             && motor.limits.validate().is_ok()
+            && patch.validate(motor.model.params.a2).is_ok()
             && motor_period.finite()
             && motor_period > T::zero();
         if !valid {

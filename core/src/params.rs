@@ -21,8 +21,6 @@ pub enum ParamError {
     FrequenciesNotIncreasing,
     /// The piezo patch must lie on link 2: `0 ≤ x_a`, `0 < l_a`, `x_a + l_a ≤ a2`.
     PatchOutsideLink,
-    /// A controller rate is not below the plant's or the loop rates do not nest.
-    InvalidRate(&'static str),
 }
 
 impl core::fmt::Display for ParamError {
@@ -40,7 +38,6 @@ impl core::fmt::Display for ParamError {
                     "piezo patch must lie on link 2: 0 <= x_a, 0 < l_a, x_a + l_a <= a2"
                 )
             }
-            Self::InvalidRate(n) => write!(f, "invalid rate `{n}`"),
         }
     }
 }

@@ -198,3 +198,31 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn patch_off_the_link_is_an_invalid_configuration() {
+    let mut patch = PiezoPatch::<f32>::paper();
+    patch.l_a = 0.9;
+    assert_eq!(
+        patch.validate(0.7),
+        Err(flexarm_core::ParamError::PatchOutsideLink)
+    );
+    assert_eq!(PiezoPatch::<f32>::paper().validate(0.7), Ok(()));
+    let limits = Limits::default();
+    let c = Controller::new(
+        MotorController {
+            model: Model::new(ArmParams::default()),
+            gains: Gains::default(),
+            limits,
+            law: MotorLaw::Tracking,
+        },
+        PiezoLaw::new(&PiezoGains::default(), 1e-4, limits.v_a_max),
+        patch,
+        Observer::new(gain(&GAIN_1KHZ), film_map(&patch), 1e-3, Vector2::zeros()),
+        SensorLimits::default(),
+        JointTrajectory::Hold(Vector2::zeros()),
+        1e-3,
+        3,
+    );
+    assert_eq!(c.fault(), Some(Fault::InvalidConfig));
+}

@@ -252,6 +252,10 @@ pub enum SimError {
         /// When [s].
         t: f64,
     },
+    /// The desired trajectory cannot be built.
+    Trajectory(flexarm_core::TrajectoryError),
+    /// The observer gain could not be designed for these rates and this arm.
+    ObserverDesign,
     /// The controller went to its safe state.
     Fault {
         /// Why.
@@ -270,6 +274,10 @@ impl core::fmt::Display for SimError {
                 "incompatible rates: {name} = {hz} Hz is not a whole number of plant steps of {plant_dt} s"
             ),
             Self::Plant { t } => write!(f, "at t = {t:.4} s: {Diverged}"),
+            Self::Trajectory(e) => write!(f, "{e}"),
+            Self::ObserverDesign => {
+                f.write_str("the observer gain could not be designed for this arm and motor rate")
+            }
             Self::Fault { fault, t } => write!(f, "controller fault at t = {t:.4} s: {fault}"),
         }
     }
@@ -368,7 +376,7 @@ fn build(
                 motor_period,
                 &NoiseModel::default(),
             )
-            .map_err(|_| SimError::Config(ParamError::InvalidRate("observer design")))?;
+            .map_err(|_| SimError::ObserverDesign)?;
             let off = PiezoGains {
                 k_c: 0.0,
                 ..PiezoGains::default()

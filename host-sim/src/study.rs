@@ -67,8 +67,7 @@ pub fn paper_cases(opts: &Options) -> Result<Vec<Case>, SimError> {
         duration: opts.duration,
         ..SimConfig::default()
     };
-    let circle = Circle::paper(0.3, 0.7)
-        .map_err(|_| SimError::Config(flexarm_core::ParamError::InvalidRate("circle")))?;
+    let circle = Circle::paper(0.3, 0.7).map_err(SimError::Trajectory)?;
     let scenarios: [(&'static str, JointTrajectory<f32>); 2] = [
         ("trapezoid", JointTrajectory::Trapezoid(Trapezoid::paper())),
         ("circle", JointTrajectory::Circle(circle)),

@@ -127,6 +127,32 @@ impl<T: Real> PiezoPatch<T> {
         )
     }
 
+    /// Checks that the patch lies on a link 2 of length `a2` [m] and that its constants are
+    /// finite and positive.
+    pub fn validate(&self, a2: T) -> Result<(), crate::params::ParamError> {
+        use crate::params::ParamError;
+        let finite = [
+            self.x_a,
+            self.l_a,
+            self.k_a,
+            self.k_s,
+            self.slope_diff.x,
+            self.slope_diff.y,
+        ]
+        .iter()
+        .all(|v| v.finite());
+        if !finite {
+            return Err(ParamError::NotFinite("piezo patch"));
+        }
+        if !(self.x_a >= T::zero() && self.l_a > T::zero() && self.x_a + self.l_a <= a2) {
+            return Err(ParamError::PatchOutsideLink);
+        }
+        if !(self.k_a > T::zero() && self.k_s > T::zero()) {
+            return Err(ParamError::NotPositive("k_a, k_s"));
+        }
+        Ok(())
+    }
+
     /// Input vector `C_a = k_a Δφ'` (Eq. 18): modal force per actuator volt.
     pub fn c_a(&self) -> Vector2<T> {
         self.slope_diff * self.k_a
