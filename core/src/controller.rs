@@ -39,8 +39,6 @@ pub struct MotorReport<T> {
     pub command: Command<T>,
     /// The law's output before gating, when it ran.
     pub law: Option<MotorOutput<T>>,
-    /// Estimated `(q, q̇)`.
-    pub estimate: (Vector4<T>, Vector4<T>),
 }
 
 /// The controller: laws, observer and fault logic.
@@ -136,6 +134,11 @@ impl<T: Real> Controller<T> {
         )
     }
 
+    /// The observer's estimate `(q, q̇)` after the last motor step.
+    pub fn estimate(&self) -> (Vector4<T>, Vector4<T>) {
+        self.observer.state()
+    }
+
     /// The latched fault, if any.
     pub fn fault(&self) -> Option<Fault> {
         self.latch.fault()
@@ -190,7 +193,6 @@ impl<T: Real> Controller<T> {
         MotorReport {
             command: self.latch.gate(tau, self.v_a),
             law,
-            estimate: self.observer.state(),
         }
     }
 

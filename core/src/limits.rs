@@ -6,14 +6,15 @@ use crate::real::Real;
 
 /// `x` clamped to `[−limit, limit]`; NaN gives 0. `limit` must be positive.
 pub fn saturate<T: Real>(x: T, limit: T) -> T {
-    if x.is_nan_() {
-        T::zero()
-    } else if x > limit {
+    // One comparison on the common path; NaN fails every comparison and ends at zero.
+    if x.abs() <= limit {
+        x
+    } else if x > T::zero() {
         limit
-    } else if x < -limit {
+    } else if x < T::zero() {
         -limit
     } else {
-        x
+        T::zero()
     }
 }
 

@@ -72,24 +72,28 @@ impl<T: Real> Model<T> {
     }
 
     /// The configuration-dependent terms of `B(q)` and `∂B/∂q`, computed once per step.
+    #[inline(always)]
     pub fn terms(&self, q: &Vector4<T>) -> Terms<T> {
         let (s2, c2) = q.y.lsin_cos();
         self.terms_sc(s2, c2, q)
     }
 
     /// [`Self::terms`] with `(sin θ2, cos θ2)` already computed.
+    #[inline(always)]
     pub fn terms_sc(&self, s2: T, c2: T, q: &Vector4<T>) -> Terms<T> {
         let (d1, d2) = (q.z, q.w);
         let jd = self.j_const + d1 * d1 + d2 * d2;
         let a1v_delta = self.a1_v.x * d1 + self.a1_v.y * d2;
         let h = self.a1_s2 * c2 - s2 * a1v_delta;
         let w = self.params.modes.moment_integral;
+        let (b11, b12, b22) = (self.a_const + jd + h + h, jd + h, jd);
+        let (b13, b14) = (self.a1_v.x * c2 + w.x, self.a1_v.y * c2 + w.y);
         Terms {
-            b11: self.a_const + jd + h + h,
-            b12: jd + h,
-            b22: jd,
-            b13: self.a1_v.x * c2 + w.x,
-            b14: self.a1_v.y * c2 + w.y,
+            b11,
+            b12,
+            b22,
+            b13,
+            b14,
             w1: w.x,
             w2: w.y,
             dh: -self.a1_s2 * s2 - c2 * a1v_delta,
@@ -97,6 +101,11 @@ impl<T: Real> Model<T> {
             d14: -self.a1_v.y * s2,
             d1,
             d2,
+            s_inv: schur_inverse(
+                b11 - b13 * b13 - b14 * b14,
+                b12 - b13 * w.x - b14 * w.y,
+                b22 - w.x * w.x - w.y * w.y,
+            ),
         }
     }
 
@@ -235,6 +244,7 @@ impl<T: Real> Model<T> {
     }
 
     /// [`Self::acceleration`] with the terms of `B(q)` already computed.
+    #[inline(always)]
     pub fn acceleration_with(
         &self,
         terms: &Terms<T>,
@@ -242,7 +252,7 @@ impl<T: Real> Model<T> {
         qd: &Vector4<T>,
         u: &Vector4<T>,
     ) -> Option<Vector4<T>> {
-        let rhs = u - terms.c_times(qd, qd) - self.elastic_force(q) - self.damping_force(qd);
+        let rhs = u - terms.coriolis_vector(qd) - self.elastic_force(q) - self.damping_force(qd);
         terms.solve(&rhs)
     }
 
@@ -256,7 +266,8 @@ impl<T: Real> Model<T> {
 ///
 /// `B` has the block form `[[B_θθ, B_θδ], [B_θδᵀ, I]]` (unit modal mass), so it is solved
 /// through the 2×2 Schur complement `S = B_θθ − B_θδ B_θδᵀ` (positive definite whenever `B` is):
-/// no square root, no 4×4 factorization. `∂B/∂q` has three non-zero slices (`θ2`, `δ1`, `δ2`),
+/// no square root, no 4×4 factorization. `S⁻¹` is computed once with the terms and serves the
+/// forward dynamics and the robust term alike. `∂B/∂q` has three non-zero slices (`θ2`, `δ1`, `δ2`),
 /// whose entries are `dh`, `d13`, `d14` and `2δ_j`, `e_j = d1,2+j`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Terms<T> {
@@ -284,6 +295,21 @@ pub struct Terms<T> {
     pub d1: T,
     /// `δ2`.
     pub d2: T,
+    /// `S⁻¹`; `None` unless `S` is numerically positive definite.
+    s_inv: Option<Matrix2<T>>,
+}
+
+/// Inverse of the symmetric 2×2 matrix `[[s11, s12], [s12, s22]]`; `None` unless it is
+/// numerically positive definite.
+fn schur_inverse<T: Real>(s11: T, s12: T, s22: T) -> Option<Matrix2<T>> {
+    let det = s11 * s22 - s12 * s12;
+    let inv = T::one() / det;
+    // `det > 0` rejects NaN; `1/det > 0` rejects `det = +∞`.
+    if !(s11 > T::zero() && det > T::zero() && inv > T::zero()) {
+        return None;
+    }
+    let off = -s12 * inv;
+    Some(Matrix2::new(s22 * inv, off, off, s11 * inv))
 }
 
 impl<T: Real> Terms<T> {
@@ -310,6 +336,7 @@ impl<T: Real> Terms<T> {
     }
 
     /// The joint rows of `B v`.
+    #[inline(always)]
     pub fn b_times_joints(&self, v: &Vector4<T>) -> Vector2<T> {
         Vector2::new(
             self.b11 * v.x + self.b12 * v.y + self.b13 * v.z + self.b14 * v.w,
@@ -369,7 +396,27 @@ impl<T: Real> Terms<T> {
         (b_dot_v + y_v - yt_v) * T::c(0.5)
     }
 
+    /// The Coriolis and centrifugal forces `C(q, q̇) q̇` (forward dynamics): with `v = q̇`,
+    /// `Ḃq̇ = Yq̇`, so `C q̇ = Ḃq̇ − ½ Yᵀq̇`, where `(Yᵀq̇)_k = q̇ᵀ (∂B/∂q_k) q̇`.
+    pub fn coriolis_vector(&self, qd: &Vector4<T>) -> Vector4<T> {
+        let (w0, w1, w2, w3) = (qd.x, qd.y, qd.z, qd.w);
+        let half = T::c(0.5);
+        // ∂B/∂θ2 q̇ and ∂B/∂δj q̇ (joint block only).
+        let p = self.p_times(qd);
+        let g1 = Self::q_block(self.d1, self.d13, w0, w1);
+        let g2 = Self::q_block(self.d2, self.d14, w0, w1);
+        // q̇ᵀ ∂B/∂θ2 q̇ = q̇ · p.
+        let qpq = w0 * p.x + w1 * p.y + w2 * p.z + w3 * p.w;
+        Vector4::new(
+            w1 * p.x + w2 * g1.0 + w3 * g2.0,
+            w1 * p.y + w2 * g1.1 + w3 * g2.1 - half * qpq,
+            w1 * p.z - half * (w0 * g1.0 + w1 * g1.1),
+            w1 * p.w - half * (w0 * g2.0 + w1 * g2.1),
+        )
+    }
+
     /// The joint rows of `C(q, q̇) v`: all the motors need.
+    #[inline(always)]
     pub fn c_times_joints(&self, qd: &Vector4<T>, v: &Vector4<T>) -> Vector2<T> {
         let (w0, w1, w2, w3) = (qd.x, qd.y, qd.z, qd.w);
         let (v0, v1, v2, v3) = (v.x, v.y, v.z, v.w);
@@ -391,20 +438,12 @@ impl<T: Real> Terms<T> {
     /// `S⁻¹`, the inverse of the Schur complement `S = B_θθ − B_θδ B_θδᵀ`; `None` unless `S` is
     /// numerically positive definite.
     pub fn schur_inverse(&self) -> Option<Matrix2<T>> {
-        let s11 = self.b11 - self.b13 * self.b13 - self.b14 * self.b14;
-        let s12 = self.b12 - self.b13 * self.w1 - self.b14 * self.w2;
-        let s22 = self.b22 - self.w1 * self.w1 - self.w2 * self.w2;
-        let det = s11 * s22 - s12 * s12;
-        if !(s11 > T::zero() && det > T::zero() && det.finite()) {
-            return None;
-        }
-        let inv = T::one() / det;
-        Some(Matrix2::new(s22 * inv, -s12 * inv, -s12 * inv, s11 * inv))
+        self.s_inv
     }
 
     /// Solves `B x = r` (forward dynamics).
     pub fn solve(&self, r: &Vector4<T>) -> Option<Vector4<T>> {
-        let s_inv = self.schur_inverse()?;
+        let s_inv = self.s_inv?;
         let rt = Vector2::new(
             r.x - self.b13 * r.z - self.b14 * r.w,
             r.y - self.w1 * r.z - self.w2 * r.w,
@@ -420,7 +459,7 @@ impl<T: Real> Terms<T> {
 
     /// `M = (B⁻¹)_δθ = −B_δθ S⁻¹`: how joint torques move the modal accelerations.
     pub fn modal_input_map(&self) -> Option<Matrix2<T>> {
-        let s_inv = self.schur_inverse()?;
+        let s_inv = self.s_inv?;
         Some(-Matrix2::new(self.b13, self.w1, self.b14, self.w2) * s_inv)
     }
 }

@@ -22,7 +22,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::fault::Fault;
 use crate::model::{Model, Terms};
-use crate::real::Real;
+use crate::real::{Real, all_finite};
 use crate::{Vector2, Vector4};
 
 /// The observer's gain `L`: 8 states `(q, q̇)` by 3 measurements `(θ1, θ2, V_f)`.
@@ -79,12 +79,15 @@ impl<T: Real> Observer<T> {
     /// Correction with the new measurement. A non-finite measurement is refused and leaves the
     /// estimate unchanged.
     pub fn correct(&mut self, y: &Measurement<T>) -> Result<(), Fault> {
-        if !(y.theta.x.finite() && y.theta.y.finite() && y.v_f.finite()) {
+        if !all_finite([y.theta.x, y.theta.y, y.v_f]) {
             return Err(Fault::NonFinite);
         }
-        let dx = self.gain * self.residual(y);
-        self.q += dx.fixed_rows::<4>(0);
-        self.qd += dx.fixed_rows::<4>(4);
+        let r = self.residual(y);
+        let l = &self.gain;
+        // x̂ += L r, row by row (no temporary 8-vector).
+        let row = |i: usize| l[(i, 0)] * r.x + l[(i, 1)] * r.y + l[(i, 2)] * r.z;
+        self.q += Vector4::new(row(0), row(1), row(2), row(3));
+        self.qd += Vector4::new(row(4), row(5), row(6), row(7));
         Ok(())
     }
 
@@ -96,6 +99,7 @@ impl<T: Real> Observer<T> {
 
     /// [`Self::predict`] with the terms of `B(q̂)` already computed (the motor law used them at
     /// the same estimate).
+    #[inline(always)]
     pub fn predict_with(
         &mut self,
         model: &Model<T>,
@@ -107,7 +111,7 @@ impl<T: Real> Observer<T> {
             .ok_or(Fault::Singular)?;
         let qd = self.qd + qdd * self.period;
         let q = self.q + qd * self.period;
-        if q.iter().chain(qd.iter()).all(|x| x.finite()) {
+        if all_finite([q.x, q.y, q.z, q.w, qd.x, qd.y, qd.z, qd.w]) {
             self.q = q;
             self.qd = qd;
             Ok(())

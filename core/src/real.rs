@@ -38,8 +38,9 @@ impl Real for f32 {
     fn lsin_cos(self) -> (Self, Self) {
         crate::fastmath::sin_cos(self)
     }
+    /// Float-only ([`crate::fastmath::exp`]), like `lsin_cos`.
     fn lexp(self) -> Self {
-        libm::expf(self)
+        crate::fastmath::exp(self)
     }
     fn lacos(self) -> Self {
         libm::acosf(self)
@@ -104,4 +105,11 @@ impl Real for f64 {
     fn is_nan_(self) -> bool {
         self.is_nan()
     }
+}
+
+/// `true` if every value is finite, with one comparison: any NaN or ±∞ makes the sum NaN or ±∞.
+/// The sum of finite values overflows only beyond `3.4e38` (in `f32`), far past any physical
+/// quantity of the arm, and that too reads as not finite: the check errs on the safe side.
+pub fn all_finite<T: Real, const N: usize>(xs: [T; N]) -> bool {
+    xs.into_iter().fold(T::zero(), |acc, x| acc + x).finite()
 }

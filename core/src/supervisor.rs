@@ -69,15 +69,21 @@ impl<T: Real> SensorLimits<T> {
         previous: Option<&Measurement<T>>,
         period: T,
     ) -> Result<(), Fault> {
-        if !(y.theta.x.finite() && y.theta.y.finite() && y.v_f.finite()) {
-            return Err(Fault::NonFinite);
-        }
-        let inside = |x: T, lo: T, hi: T| x >= lo && x <= hi;
-        if !inside(y.theta.x, self.theta_min.x, self.theta_max.x)
-            || !inside(y.theta.y, self.theta_min.y, self.theta_max.y)
-            || y.v_f.abs() > self.v_f_max
-        {
-            return Err(Fault::OutOfRange);
+        // Written so that NaN fails every comparison: the range test rejects NaN, ±∞ and
+        // out-of-range samples at once, and the cause is sorted out on the (rare) fault path.
+        let inside = y.theta.x >= self.theta_min.x
+            && y.theta.x <= self.theta_max.x
+            && y.theta.y >= self.theta_min.y
+            && y.theta.y <= self.theta_max.y
+            && y.v_f.abs() <= self.v_f_max;
+        if !inside {
+            return Err(
+                if y.theta.x.finite() && y.theta.y.finite() && y.v_f.finite() {
+                    Fault::OutOfRange
+                } else {
+                    Fault::NonFinite
+                },
+            );
         }
         if let Some(p) = previous {
             let step = self.speed_max * period;

@@ -1,6 +1,6 @@
-//! Accuracy of the float-only `sin_cos` against `f64` libm.
+//! Accuracy of the float-only `sin_cos` and `exp` against `f64` libm.
 
-use flexarm_core::fastmath::sin_cos;
+use flexarm_core::fastmath::{exp, sin_cos};
 
 #[test]
 fn error_is_about_one_ulp_over_the_working_range() {
@@ -31,4 +31,34 @@ fn special_values() {
     assert!((f64::from(s) - se).abs() < 0.1 && (f64::from(c) - ce).abs() < 0.1);
     let (s, c) = sin_cos(f32::INFINITY);
     assert!(s.is_nan() && c.is_nan());
+}
+
+#[test]
+fn exp_relative_error_is_a_few_ulp_over_its_range() {
+    let mut worst: f64 = 0.0;
+    let n = 2_000_000;
+    for i in 0..=n {
+        let x = -87.0 + 175.0 * i as f32 / n as f32;
+        let e = libm::exp(f64::from(x));
+        worst = worst.max((f64::from(exp(x)) - e).abs() / e);
+    }
+    println!("max relative error of exp over [-87, 88]: {worst:.3e}");
+    assert!(worst < 3e-7, "{worst}");
+}
+
+#[test]
+fn exp_special_values() {
+    assert_eq!(exp(0.0), 1.0);
+    assert!(exp(f32::NAN).is_nan());
+    assert_eq!(exp(f32::NEG_INFINITY), 0.0);
+    assert_eq!(exp(-100.0), 0.0);
+    assert_eq!(exp(f32::INFINITY), f32::INFINITY);
+    assert_eq!(exp(89.0), f32::INFINITY);
+    // Monotone across the reduction's breakpoints (k changes at odd multiples of ln 2 / 2).
+    let mut prev = 0.0;
+    for i in 0..=20_000 {
+        let y = exp(-10.0 + i as f32 * 1e-3);
+        assert!(y >= prev, "exp not monotone at {}", -10.0 + i as f32 * 1e-3);
+        prev = y;
+    }
 }

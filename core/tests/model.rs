@@ -167,6 +167,15 @@ proptest! {
         prop_assert!((full - sparse).abs().max() < 1e-12 * (1.0 + full.abs().max()), "{} vs {}", full, sparse);
     }
 
+    /// The forward dynamics' `C(q, q̇) q̇` (the `v = q̇` specialization) equals the matrix product.
+    #[test]
+    fn coriolis_vector_equals_the_matrix((q, qd) in state()) {
+        let m = model();
+        let full = m.coriolis(&q, &qd) * qd;
+        let fast = m.terms(&q).coriolis_vector(&qd);
+        prop_assert!((full - fast).abs().max() < 1e-12 * (1.0 + full.abs().max()), "{} vs {}", full, fast);
+    }
+
     /// The structured products and the Schur-complement solve agree with the dense matrices.
     #[test]
     fn structured_terms_agree_with_dense_algebra((q, qd) in state(), v in state()) {

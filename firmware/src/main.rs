@@ -311,13 +311,14 @@ mod app {
             .shared
             .board
             .lock(|b| (b.encoders(), b.film_voltage(), b.amplifier_fault()));
-        let (report, fault) = cx.shared.ctrl.lock(|c| {
+        let (report, fault, (q, _)) = cx.shared.ctrl.lock(|c| {
             if amp_fault {
                 c.trip(Fault::Amplifier);
             }
             (
                 c.motor_step(t, Some(&Measurement { theta, v_f })),
                 c.fault(),
+                c.estimate(),
             )
         });
         let cmd = report.command;
@@ -339,7 +340,6 @@ mod app {
             push(Record::Fault { t, fault });
         }
         if k.is_multiple_of(config::TELEMETRY_EVERY) {
-            let (q, _) = report.estimate;
             let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);
             push(Record::Sample {
                 t,

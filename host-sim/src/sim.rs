@@ -487,7 +487,7 @@ pub fn simulate(
                     if let Some(fault) = c.fault() {
                         return Err(SimError::Fault { fault, t });
                     }
-                    let (q_hat, _) = rep.estimate;
+                    let (q_hat, _) = c.estimate();
                     (
                         rep.command.tau.cast::<f64>(),
                         Vector2::new(f64::from(q_hat.z), f64::from(q_hat.w)),

@@ -7,7 +7,7 @@ use crate::fault::Fault;
 use crate::limits::saturate2;
 use crate::model::{Model, Terms};
 use crate::params::{Gains, Limits};
-use crate::real::Real;
+use crate::real::{Real, all_finite};
 use crate::trajectory::JointTarget;
 use crate::{Vector2, Vector4};
 
@@ -59,6 +59,7 @@ impl<T: Real> MotorController<T> {
     }
 
     /// [`Self::step`] with the terms of `B(q)` already computed (shared with the observer).
+    #[inline(always)]
     pub fn step_with(
         &self,
         terms: &Terms<T>,
@@ -67,8 +68,7 @@ impl<T: Real> MotorController<T> {
         qd: &Vector4<T>,
         target: &JointTarget<T>,
     ) -> Result<MotorOutput<T>, Fault> {
-        let finite = |v: &Vector4<T>| v.iter().all(|x| x.finite());
-        if !t.finite() || !finite(q) || !finite(qd) {
+        if !all_finite([t, q.x, q.y, q.z, q.w, qd.x, qd.y, qd.z, qd.w]) {
             return Err(Fault::NonFinite);
         }
         let r = Reference::new(&self.gains.lambda, q, qd, target);
@@ -82,7 +82,7 @@ impl<T: Real> MotorController<T> {
             );
             tau += joint_torque_for_modal_accel(terms, &a, self.gains.mu);
         }
-        if !(tau.x.finite() && tau.y.finite()) {
+        if !all_finite([tau.x, tau.y]) {
             return Err(Fault::Singular);
         }
         let sat = saturate2(&tau, &self.limits.tau_max);

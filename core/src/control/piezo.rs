@@ -24,6 +24,7 @@
 //!   area whose mid-plane lies `z_f = (t_b + t_f)/2` from the beam's neutral axis: charge
 //!   `e31 b z_f Δw'` over capacitance `C b l_a`, with `e31/C = g31 E_f t_f`.
 
+use crate::limits::saturate;
 use crate::modes::UniformMode;
 use crate::real::Real;
 use crate::{Vector2, Vector4};
@@ -275,10 +276,10 @@ impl<T: Real> PiezoLaw<T> {
         self.step_finite(v_f)
     }
 
-    /// [`Self::step`] for a sample the caller has already checked to be finite and bounded:
-    /// the filter is stable, so its output is finite and a plain clamp saturates it.
+    /// [`Self::step`] for a sample the caller has already checked to be finite and bounded
+    /// (the filter is stable, so its output is finite too).
     pub fn step_finite(&mut self, v_f: T) -> T {
-        self.filter.update(v_f).clamp(-self.v_max, self.v_max)
+        saturate(self.filter.update(v_f), self.v_max)
     }
 
     /// Forgets the filter's history.

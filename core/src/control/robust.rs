@@ -21,10 +21,10 @@
 //! The torque that best delivers `a_Δ` is the damped least-squares solution
 //! `Δτ = Mᵀ (M Mᵀ + μ² σ² I)⁻¹ a_Δ`, `σ² = ‖M‖²_F / 2`, which stays bounded where `M` loses rank.
 
+use crate::Vector2;
 use crate::model::Terms;
 use crate::params::Gains;
 use crate::real::Real;
-use crate::{Matrix2, Vector2};
 
 /// Requested modal acceleration `a_Δ = −D'_Δ δ̇` [√kg·m/s² per unit modal mass] at time `t` [s].
 pub fn modal_damping_accel<T: Real>(
@@ -33,32 +33,36 @@ pub fn modal_damping_accel<T: Real>(
     delta_dot: &Vector2<T>,
     s_delta: &Vector2<T>,
 ) -> Vector2<T> {
-    let one = |dd: T, s: T, d: T, eps: T, phi: T| {
-        let layer = (eps * (-phi * t).lexp()).max(gains.epsilon_floor);
+    // e^{−φ_j t}; one exponential when both modes share φ (the paper's φ_ij = 0.01).
+    let e1 = (-gains.phi.x * t).lexp();
+    let e2 = if gains.phi.y == gains.phi.x {
+        e1
+    } else {
+        (-gains.phi.y * t).lexp()
+    };
+    let one = |dd: T, s: T, d: T, eps: T, decay: T| {
+        let layer = eps * decay;
+        // Not `max`: on the Cortex-M4F that is a call to `fmaxf`.
+        let layer = if layer > gains.epsilon_floor {
+            layer
+        } else {
+            gains.epsilon_floor
+        };
         let p = dd * s;
         let f = p.abs() / (p.abs() + layer);
         -d * (T::one() + f) * dd
     };
     Vector2::new(
-        one(
-            delta_dot.x,
-            s_delta.x,
-            gains.d_delta.x,
-            gains.epsilon.x,
-            gains.phi.x,
-        ),
-        one(
-            delta_dot.y,
-            s_delta.y,
-            gains.d_delta.y,
-            gains.epsilon.y,
-            gains.phi.y,
-        ),
+        one(delta_dot.x, s_delta.x, gains.d_delta.x, gains.epsilon.x, e1),
+        one(delta_dot.y, s_delta.y, gains.d_delta.y, gains.epsilon.y, e2),
     )
 }
 
 /// Damped least-squares joint torque `Δτ` [N·m] that best produces the modal acceleration `a`,
 /// with `M = (B⁻¹)_δθ` from the terms of `B(q)` ([`Terms::modal_input_map`]).
+///
+/// `G = M Mᵀ + μ² σ² I` is symmetric, and `σ² = ‖M‖²_F / 2 = tr(M Mᵀ)/2` comes from its
+/// diagonal; `G⁻¹ a` is solved in closed form. `M = 0` (no authority) gives `Δτ = 0`.
 pub fn joint_torque_for_modal_accel<T: Real>(
     terms: &Terms<T>,
     a: &Vector2<T>,
@@ -67,10 +71,19 @@ pub fn joint_torque_for_modal_accel<T: Real>(
     let Some(m) = terms.modal_input_map() else {
         return Vector2::zeros();
     };
-    let sigma2 = m.norm_squared() * T::c(0.5);
-    let g = m * m.transpose() + Matrix2::identity() * (mu * mu * sigma2);
-    match g.try_inverse() {
-        Some(g_inv) => m.transpose() * (g_inv * a),
-        None => Vector2::zeros(),
+    let (m11, m12, m21, m22) = (m.m11, m.m12, m.m21, m.m22);
+    let g11 = m11 * m11 + m12 * m12;
+    let g12 = m11 * m21 + m12 * m22;
+    let g22 = m21 * m21 + m22 * m22;
+    let reg = mu * mu * (g11 + g22) * T::c(0.5);
+    let (g11, g22) = (g11 + reg, g22 + reg);
+    let det = g11 * g22 - g12 * g12;
+    // NaN passes on (and trips a fault downstream); only a vanishing map gives zero.
+    if det <= T::zero() {
+        return Vector2::zeros();
     }
+    let inv = T::one() / det;
+    let y1 = (g22 * a.x - g12 * a.y) * inv;
+    let y2 = (g11 * a.y - g12 * a.x) * inv;
+    Vector2::new(m11 * y1 + m21 * y2, m12 * y1 + m22 * y2)
 }

@@ -28,6 +28,7 @@ pub struct Reference<T> {
 
 impl<T: Real> Reference<T> {
     /// Reference signals for the state `(q, q̇)` and the target (`δ_d = 0`).
+    #[inline(always)]
     pub fn new(
         lambda: &Vector4<T>,
         q: &Vector4<T>,
@@ -62,6 +63,7 @@ pub fn eq7_with<T: Real>(
 
 /// The joint rows of Eq. 7, the motor torques: `τ = (B q̈_r + C q̇_r − K_p s)_θ` (`K_e` and `D`
 /// vanish on the joint rows). Only these rows reach an actuator, so only these are computed.
+#[inline(always)]
 pub fn eq7_joints<T: Real>(
     terms: &Terms<T>,
     qd: &Vector4<T>,

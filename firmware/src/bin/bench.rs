@@ -3,8 +3,10 @@
 //!
 //! With `-icount shift=0` QEMU advances TIM5 (clocked at 1 GHz) by one count per executed
 //! instruction, so a count difference around a call is the number of instructions it executed:
-//! exact and repeatable. The cost of the measurement itself (an empty call between two reads) is
-//! subtracted. On hardware, the same code would read the DWT cycle counter instead.
+//! exact and repeatable. Each function is called through a wrapper that is never inlined, with
+//! its state in memory, the way an interrupt handler calls it: the count is the function's own
+//! work, the loads and stores of its state included. The cost of the measurement itself, the
+//! two reads around a call of an empty wrapper of the same shape, is subtracted. On hardware, the same code would read the DWT cycle counter instead.
 //!
 //! States: 200 recorded along the paper's trapezoid move (the simulated arm under the complete
 //! controller, the same code as the QEMU board) and 200 random ones. Each mean is checked
@@ -13,6 +15,8 @@
 #![no_main]
 
 use core::hint::black_box;
+use core::sync::atomic::Ordering::SeqCst;
+use core::sync::atomic::compiler_fence;
 
 use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
 use defmt_semihosting as _;
@@ -84,14 +88,53 @@ impl Stat {
     }
 }
 
-/// Counts of `f` over `states`, overhead subtracted.
-fn measure(states: &[State], overhead: u32, mut f: impl FnMut(&State)) -> Stat {
+// The measured calls. Each wrapper is never inlined and reads the counter itself, around the
+// call, with compiler fences so that no load or computation moves across the reads; the state
+// (controller, model, sample) stays in memory as in the firmware.
+
+/// Runs `f` between two counter reads; returns its result and the count.
+#[inline(always)]
+fn timed<R>(f: impl FnOnce() -> R) -> (R, u32) {
+    let t0 = now();
+    compiler_fence(SeqCst);
+    let r = f();
+    compiler_fence(SeqCst);
+    let t1 = now();
+    (r, t1.wrapping_sub(t0))
+}
+
+#[inline(never)]
+fn call_empty(c: &mut Controller<f32>, v_f: f32) -> (f32, u32) {
+    timed(|| black_box((c, v_f)).1)
+}
+
+#[inline(never)]
+fn call_eq7(model: &Model<f32>, gains: &Gains<f32>, s: &State) -> (Vector2<f32>, u32) {
+    timed(|| eq7_torques(model, gains, &s.q, &s.qd, &s.target))
+}
+
+#[inline(never)]
+fn call_motor_law(motor: &MotorController<f32>, s: &State) -> (Option<Vector2<f32>>, u32) {
+    timed(|| motor.step(s.t, &s.q, &s.qd, &s.target).ok().map(|o| o.tau))
+}
+
+#[inline(never)]
+fn call_motor_step(c: &mut Controller<f32>, s: &State) -> (Vector2<f32>, u32) {
+    timed(|| c.motor_step(s.t, Some(&s.y)).command.tau)
+}
+
+#[inline(never)]
+fn call_piezo_step(c: &mut Controller<f32>, v_f: f32) -> (f32, u32) {
+    timed(|| c.piezo_step(v_f))
+}
+
+/// Counts of `f` (a timed call) over `states`, overhead subtracted.
+fn measure<R>(states: &[State], overhead: u32, mut f: impl FnMut(&State) -> (R, u32)) -> Stat {
     let mut s = Stat::new();
     for st in states {
-        let t0 = now();
-        f(black_box(st));
-        let t1 = now();
-        s.add(t1.wrapping_sub(t0).saturating_sub(overhead));
+        let (r, n) = f(black_box(st));
+        black_box(r);
+        s.add(n.saturating_sub(overhead));
     }
     s
 }
@@ -144,7 +187,7 @@ fn recorded() -> [State; N] {
         arm.set_torques(rep.command.tau);
         arm.set_enable(rep.command.enable);
         if k % 25 == 0 && i < N {
-            let (q, qd) = rep.estimate;
+            let (q, qd) = ctrl.estimate();
             out[i] = State {
                 t,
                 q,
@@ -195,7 +238,10 @@ fn main() -> ! {
     dp.TIM5.cnt().write(|w| w.cnt().set(0));
 
     let sets = [("recorded", recorded()), ("random", random())];
-    let overhead = measure(&sets[0].1, 0, |_| ()).min;
+    let overhead = {
+        let mut c = controller(MotorLaw::Robust);
+        measure(&sets[0].1, 0, |s| call_empty(black_box(&mut c), s.y.v_f)).min
+    };
     defmt::info!(
         "measurement overhead: {=u32} instructions (subtracted)",
         overhead
@@ -215,14 +261,12 @@ fn main() -> ! {
             (
                 "eq7",
                 measure(states, overhead, |s| {
-                    black_box(eq7_torques(&model, &gains, &s.q, &s.qd, &s.target));
+                    call_eq7(black_box(&model), black_box(&gains), s)
                 }),
             ),
             (
                 "motor_step",
-                measure(states, overhead, |s| {
-                    black_box(motor.step(s.t, &s.q, &s.qd, &s.target).ok());
-                }),
+                measure(states, overhead, |s| call_motor_law(black_box(&motor), s)),
             ),
             ("controller_motor", {
                 let base = controller(MotorLaw::Robust);
@@ -230,16 +274,16 @@ fn main() -> ! {
                 for s in states.iter() {
                     let mut c = base;
                     c.reset_observer(s.y.theta);
-                    let t0 = now();
-                    black_box(c.motor_step(black_box(s.t), Some(black_box(&s.y))));
-                    stat.add(now().wrapping_sub(t0).saturating_sub(overhead));
+                    let (tau, n) = call_motor_step(black_box(&mut c), s);
+                    black_box(tau);
+                    stat.add(n.saturating_sub(overhead));
                 }
                 stat
             }),
             ("piezo_step", {
                 let mut c = controller(MotorLaw::Robust);
                 measure(states, overhead, |s| {
-                    black_box(c.piezo_step(black_box(s.y.v_f)));
+                    call_piezo_step(black_box(&mut c), s.y.v_f)
                 })
             }),
         ];
