@@ -214,6 +214,19 @@ pub struct PiezoChoice {
     pub modal_data: Option<ModalData<f64>>,
 }
 
+impl PiezoChoice {
+    /// The gain `k_c` [s] a controller runs with this choice: with the paper's modes,
+    /// `k_c_paper_modes` when present (same control damping ratio of mode 1 as `k_c` gives the
+    /// design beam), otherwise `k_c`. `flexarm-sim run` and the firmware's generated parameters
+    /// both use it.
+    pub fn controller_k_c(&self) -> f64 {
+        match (self.modes, self.k_c_paper_modes) {
+            (ModesChoice::Paper, Some(k)) => k,
+            _ => self.k_c,
+        }
+    }
+}
+
 /// Reads the `[piezo]` table of a TOML document (a scenario file or the fragment alone) and
 /// checks it against link 2 of length `a2` [m]. Errors name the key.
 pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
@@ -432,6 +445,19 @@ mod tests {
         let u = PiezoPatch::uniform(&m.layers.material, arm.m2, arm.a2, 0.12, 0.3);
         assert_eq!(p.patch, u);
         assert_eq!(p.k_c, 40.0);
+        // The controller on the paper's modes runs the converted gain, which differs.
+        let kp = p.k_c_paper_modes.unwrap_or(f64::NAN);
+        assert!(kp.is_finite() && (kp - 40.0).abs() > 1.0, "{kp}");
+        assert_eq!(p.controller_k_c(), kp);
+        let bare = text
+            .lines()
+            .filter(|l| !l.starts_with("k_c_paper_modes"))
+            .collect::<Vec<_>>()
+            .join("\n");
+        assert_eq!(
+            read_piezo(&bare, arm.a2).map(|p| p.controller_k_c()),
+            Ok(40.0)
+        );
         // Switched to the computed modes.
         let text = text.replace("modes = \"paper\"", "modes = \"computed\"");
         let Ok(c) = read_piezo(&text, arm.a2) else {
@@ -439,6 +465,7 @@ mod tests {
         };
         assert_eq!(Some(c.patch), core_patch(&opt.modes));
         assert_eq!(c.modal_data, modal_data(&m, &opt.modes));
+        assert_eq!(c.controller_k_c(), 40.0);
         // Inside a larger scenario file, after other tables.
         let scenario = format!("[arm]\nm2 = 0.3\n\n{text}");
         assert!(read_piezo(&scenario, arm.a2).is_ok());

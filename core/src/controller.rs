@@ -114,24 +114,54 @@ impl<T: Real> Controller<T> {
         motor_period: T,
         observer_gain: Gain<T>,
     ) -> Self {
+        Self::with_patch(
+            law,
+            trajectory,
+            piezo_period,
+            motor_period,
+            observer_gain,
+            PiezoPatch::paper(),
+            PiezoGains::default(),
+        )
+    }
+
+    /// [`Self::paper`] with another patch and piezo-loop gains: the paper's arm, motor gains
+    /// and limits, the patch `patch` (its film map `k_s Δφ'` is the observer's) and the piezo
+    /// law `V_a = sat(−k_c V̇_f)` with `piezo_gains`. `observer_gain` must be designed for this
+    /// patch's film map at `motor_period` [s] (`flexarm-sim firmware-params` does it for the
+    /// firmware). A patch that is not on link 2, or a gain `k_c` [s] or filter corner [Hz] that
+    /// is not finite and positive, latches [`Fault::InvalidConfig`].
+    pub fn with_patch(
+        law: MotorLaw,
+        trajectory: JointTrajectory<T>,
+        piezo_period: T,
+        motor_period: T,
+        observer_gain: Gain<T>,
+        patch: PiezoPatch<T>,
+        piezo_gains: PiezoGains<T>,
+    ) -> Self {
         let limits = Limits::default();
-        let patch = PiezoPatch::paper();
         let theta0 = trajectory.sample(T::zero()).q;
-        Self::new(
+        let mut ctrl = Self::new(
             MotorController {
                 model: Model::new(ArmParams::default()),
                 gains: Gains::default(),
                 limits,
                 law,
             },
-            PiezoLaw::new(&PiezoGains::default(), piezo_period, limits.v_a_max),
+            PiezoLaw::new(&piezo_gains, piezo_period, limits.v_a_max),
             patch,
             Observer::new(observer_gain, film_map(&patch), motor_period, theta0),
             SensorLimits::default(),
             trajectory,
             motor_period,
             3,
-        )
+        );
+        let positive = |v: T| v.finite() && v > T::zero();
+        if !(positive(piezo_gains.k_c) && positive(piezo_gains.cutoff_hz)) {
+            ctrl.trip(Fault::InvalidConfig);
+        }
+        ctrl
     }
 
     /// The observer's estimate `(q, q̇)` after the last motor step.

@@ -226,3 +226,50 @@ fn patch_off_the_link_is_an_invalid_configuration() {
     );
     assert_eq!(c.fault(), Some(Fault::InvalidConfig));
 }
+
+#[test]
+fn with_patch_is_paper_for_the_papers_patch_and_refuses_a_bad_patch_or_gain() {
+    let build = |patch: PiezoPatch<f32>, k_c: f32| {
+        Controller::with_patch(
+            MotorLaw::Tracking,
+            JointTrajectory::Trapezoid(Trapezoid::paper()),
+            1e-4,
+            1e-3,
+            gain(&GAIN_1KHZ),
+            patch,
+            PiezoGains {
+                k_c,
+                ..PiezoGains::default()
+            },
+        )
+    };
+    let paper = Controller::paper(
+        MotorLaw::Tracking,
+        JointTrajectory::Trapezoid(Trapezoid::paper()),
+        1e-4,
+        1e-3,
+        gain(&GAIN_1KHZ),
+    );
+    assert_eq!(build(PiezoPatch::paper(), 30.0), paper);
+    assert_eq!(paper.fault(), None);
+    // Another patch on the link: runs, and the piezo law uses the given gain.
+    let other = PiezoPatch::uniform(&Default::default(), 0.3, 0.7, 0.0, 0.5);
+    let mut c = build(other, 100.0);
+    assert_eq!(c.fault(), None);
+    assert_eq!(c.patch, other);
+    let _ = c.piezo_step(0.0);
+    let mut p = paper;
+    let _ = p.piezo_step(0.0);
+    let (v_other, v_paper) = (c.piezo_step(1e-3), p.piezo_step(1e-3));
+    assert!(v_paper < 0.0 && v_paper > -200.0, "{v_paper}");
+    assert!(
+        (v_other / v_paper - 100.0 / 30.0).abs() < 1e-5,
+        "{v_other} {v_paper}"
+    );
+    // Off the link, or a gain that is not positive: the safe state from the start.
+    let mut off = other;
+    off.x_a = 0.3;
+    for c in [build(off, 30.0), build(other, 0.0), build(other, f32::NAN)] {
+        assert_eq!(c.fault(), Some(Fault::InvalidConfig));
+    }
+}

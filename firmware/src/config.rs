@@ -4,6 +4,14 @@
 //! 1 kHz, so the QEMU board runs the loops ten times slower than the hardware (piezo 1 kHz,
 //! motor 100 Hz) with the plant stepped at the piezo period and the observer gain designed for
 //! 100 Hz. The hardware runs at 168 MHz with the APB1 timers at 84 MHz.
+//!
+//! The piezo patch, its gain `k_c` and the observer gains come from `firmware/piezo.toml`
+//! through `generated.rs` (`cargo sim firmware-params`, docs/firmware.md).
+
+use flexarm_core::Vector2;
+use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
+
+use crate::generated;
 
 /// Timer input clock [Hz].
 #[cfg(feature = "qemu")]
@@ -26,12 +34,32 @@ pub const MOTOR_HZ: u32 = PIEZO_HZ / MOTOR_DIVIDER;
 /// Supervisor rate [Hz].
 pub const SUPERVISOR_HZ: u32 = 10;
 
-/// Observer gain table for the motor rate.
+/// Observer gain table for the motor rate, designed for the patch of `firmware/piezo.toml`.
 #[cfg(feature = "qemu")]
-pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &flexarm_core::observer_gains::GAIN_100HZ;
-/// Observer gain table for the motor rate.
+pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &generated::GAIN_100HZ;
+/// Observer gain table for the motor rate, designed for the patch of `firmware/piezo.toml`.
 #[cfg(not(feature = "qemu"))]
-pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &flexarm_core::observer_gains::GAIN_1KHZ;
+pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &generated::GAIN_1KHZ;
+
+/// The piezo patch on link 2 (`firmware/piezo.toml`, through `generated.rs`): the controller's
+/// and, on the QEMU board, the simulated arm's.
+pub fn patch() -> PiezoPatch<f32> {
+    PiezoPatch {
+        x_a: generated::X_A,
+        l_a: generated::L_A,
+        slope_diff: Vector2::new(generated::SLOPE_DIFF[0], generated::SLOPE_DIFF[1]),
+        k_a: generated::K_A,
+        k_s: generated::K_S,
+    }
+}
+
+/// The piezo loop's gains: `k_c` [s] from `firmware/piezo.toml`, the core's filter corner.
+pub fn piezo_gains() -> PiezoGains<f32> {
+    PiezoGains {
+        k_c: generated::K_C,
+        ..PiezoGains::default()
+    }
+}
 
 /// Motor steps between two telemetry samples.
 pub const TELEMETRY_EVERY: u32 = MOTOR_HZ / 10;

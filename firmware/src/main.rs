@@ -17,6 +17,9 @@
 mod board;
 mod clock;
 mod config;
+// Generated from firmware/piezo.toml; each board uses one of its two observer gain tables.
+#[allow(dead_code)]
+mod generated;
 mod stats;
 mod telemetry;
 
@@ -160,12 +163,14 @@ mod app {
 
         let piezo_period = 1.0 / PIEZO_HZ as f32;
         let motor_period = 1.0 / MOTOR_HZ as f32;
-        let mut ctrl = Controller::paper(
+        let mut ctrl = Controller::with_patch(
             MotorLaw::Tracking,
             JointTrajectory::Trapezoid(Trapezoid::paper()),
             piezo_period,
             motor_period,
             gain(config::OBSERVER_GAIN),
+            config::patch(),
+            config::piezo_gains(),
         );
         #[cfg(feature = "hw")]
         if reset_by_watchdog {
@@ -175,7 +180,8 @@ mod app {
         #[cfg(feature = "qemu")]
         let board = {
             use flexarm_core::simarm::{SensorModel, SimArm};
-            // The simulated arm is the controller's own model: the paper's arm.
+            // The simulated arm is the controller's own model: the paper's arm with the
+            // firmware's patch (`firmware/piezo.toml`).
             let sim = SimArm::new(
                 ctrl.motor.model,
                 ctrl.patch,

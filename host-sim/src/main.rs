@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use clap::{Args, Parser, Subcommand};
 use flexarm_sim::sim::Rates;
 use flexarm_sim::study::{self, Case, Options, Outcome};
-use flexarm_sim::{montecarlo, output, scenario};
+use flexarm_sim::{firmware_params, montecarlo, output, scenario};
 
 #[derive(Parser)]
 #[command(
@@ -41,6 +41,17 @@ enum Command {
         /// Skip the figures.
         #[arg(long)]
         no_plots: bool,
+    },
+    /// The firmware's generated parameters (patch, k_c, observer gains) from a [piezo] fragment.
+    FirmwareParams {
+        /// The fragment (TOML, as written by `optimize`); defaults to firmware/piezo.toml.
+        fragment: Option<PathBuf>,
+        /// The generated Rust file.
+        #[arg(long, default_value = firmware_params::DEFAULT_OUT)]
+        out: PathBuf,
+        /// First (over)write the fragment with the paper's patch (x_a = 0.09 m, l_a = 0.35 m, k_c = 30 s).
+        #[arg(long)]
+        paper_fragment: bool,
     },
     /// Monte Carlo: the plant's masses, inertias, frequencies and damping perturbed by ±10 % and ±20 %.
     Montecarlo {
@@ -165,6 +176,37 @@ fn main_result(cli: Cli) -> Result<()> {
             let summary = flexarm_beam::cli::run_optimize(config.as_deref(), &out, !no_plots)
                 .map_err(|e| e.to_string())?;
             println!("{summary}");
+            Ok(())
+        }
+        Command::FirmwareParams {
+            fragment,
+            out,
+            paper_fragment,
+        } => {
+            let path = fragment.unwrap_or_else(|| PathBuf::from(firmware_params::DEFAULT_FRAGMENT));
+            if paper_fragment {
+                let text = firmware_params::paper_fragment().map_err(|e| e.to_string())?;
+                std::fs::write(&path, text)
+                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            }
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                format!(
+                    "cannot read {}: {e} (run from the repository root or name the fragment)",
+                    path.display()
+                )
+            })?;
+            let (fragment_name, out_name) = (path.display().to_string(), out.display().to_string());
+            let names = firmware_params::Names {
+                fragment: &fragment_name,
+                out: &out_name,
+            };
+            let p = firmware_params::design(&text).map_err(|e| format!("{fragment_name}: {e}"))?;
+            let source = firmware_params::source(&p, &names);
+            std::fs::write(&out, source).map_err(|e| format!("cannot write {out_name}: {e}"))?;
+            println!(
+                "Wrote {out_name} from {fragment_name}: x_a = {} m, l_a = {} m, k_c = {} s; observer gains for 1 kHz and 100 Hz.",
+                p.patch.x_a, p.patch.l_a, p.k_c
+            );
             Ok(())
         }
         Command::Montecarlo {

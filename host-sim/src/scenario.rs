@@ -259,10 +259,7 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
         let choice = flexarm_beam::fragment::read_piezo(text, cfg.arm.a2)
             .map_err(|e| ScenarioError(e.to_string()))?;
         cfg.patch = choice.patch;
-        k_c = choice
-            .k_c_paper_modes
-            .filter(|_| choice.modal_data.is_none())
-            .unwrap_or(choice.k_c);
+        k_c = choice.controller_k_c();
         if let Some(md) = choice.modal_data {
             cfg.arm.modes = md;
         }

@@ -134,3 +134,117 @@ fn optimized_patch_flows_into_a_scenario() {
     ]);
     assert!(ok, "{stderr}");
 }
+
+#[test]
+fn firmware_params_writes_the_generated_file() {
+    use flexarm_sim::firmware_params::{Names, paper_fragment, render};
+    let dir = std::env::temp_dir().join(format!("flexarm-cli-fw-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let root = format!("{}/..", env!("CARGO_MANIFEST_DIR"));
+    let checked_in = std::fs::read_to_string(format!("{root}/firmware/src/generated.rs")).unwrap();
+    // From the checked-in fragment: the checked-in file, up to the paths in its header.
+    let fragment = format!("{root}/firmware/piezo.toml");
+    let out = dir.join("generated.rs");
+    let out_s = out.to_str().unwrap();
+    let (ok, stdout, stderr) = sim(&["firmware-params", &fragment, "--out", out_s]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("Wrote"), "{stdout}");
+    let written = std::fs::read_to_string(&out).unwrap();
+    let text = std::fs::read_to_string(&fragment).unwrap();
+    let names = Names {
+        fragment: &fragment,
+        out: out_s,
+    };
+    assert_eq!(written, render(&text, &names).unwrap());
+    assert_eq!(
+        written
+            .replace(&fragment, "firmware/piezo.toml")
+            .replace(out_s, "firmware/src/generated.rs"),
+        checked_in
+    );
+    // --paper-fragment writes the paper's fragment first, then generates from it.
+    let fresh = dir.join("piezo.toml");
+    let out2 = dir.join("generated2.rs");
+    let (ok, _, stderr) = sim(&[
+        "firmware-params",
+        fresh.to_str().unwrap(),
+        "--paper-fragment",
+        "--out",
+        out2.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert_eq!(
+        std::fs::read_to_string(&fresh).unwrap(),
+        paper_fragment().unwrap()
+    );
+    assert!(
+        std::fs::read_to_string(&out2)
+            .unwrap()
+            .contains("pub const K_C: f32 = 3e1;")
+    );
+}
+
+#[test]
+fn firmware_params_refuses_with_one_error_line() {
+    let good = flexarm_sim::firmware_params::paper_fragment().unwrap();
+    let cases = [
+        (
+            "neg_kc.toml",
+            good.replace("k_c = 30.0", "k_c = -1.0"),
+            "`piezo.k_c` = -1 must be > 0",
+        ),
+        (
+            "off.toml",
+            good.replace("x_a = 0.09", "x_a = 0.6"),
+            "must lie on link 2",
+        ),
+        (
+            "unknown.toml",
+            good.replace("[piezo]\n", "[piezo]\nspeed = 1\n"),
+            "unknown field `speed`",
+        ),
+        (
+            "computed.toml",
+            good.replace("modes = \"paper\"", "modes = \"computed\""),
+            "paper's modal data",
+        ),
+        ("syntax.toml", "[piezo\n".to_string(), "unclosed table"),
+    ];
+    for (name, text, expect) in cases {
+        assert_ne!(text, good, "{name}: the edit must change the fragment");
+        let p = scratch(name, &text);
+        let out = p.with_extension("rs");
+        let (ok, _, stderr) = sim(&[
+            "firmware-params",
+            p.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(!ok, "{name} must fail");
+        let lines: Vec<&str> = stderr.lines().collect();
+        assert_eq!(lines.len(), 1, "{name}: one line, got {stderr:?}");
+        assert!(
+            lines[0].starts_with("error: ") && lines[0].contains(name) && lines[0].contains(expect),
+            "{name}: {stderr}"
+        );
+        assert!(!out.exists(), "{name}: nothing written on error");
+    }
+    let (ok, _, stderr) = sim(&[
+        "firmware-params",
+        "/no/such/piezo.toml",
+        "--out",
+        "/tmp/x.rs",
+    ]);
+    assert!(
+        !ok && stderr.starts_with("error: cannot read /no/such/piezo.toml")
+            && stderr.lines().count() == 1,
+        "{stderr}"
+    );
+    // The exit status is 1, as for every other bad input.
+    let status = Command::new(env!("CARGO_BIN_EXE_flexarm-sim"))
+        .args(["firmware-params", "/no/such/piezo.toml"])
+        .output()
+        .unwrap()
+        .status;
+    assert_eq!(status.code(), Some(1));
+}

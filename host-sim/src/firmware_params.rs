@@ -1,0 +1,294 @@
+//! `flexarm-sim firmware-params`: the firmware's generated parameters from a `[piezo]` fragment.
+//!
+//! The firmware runs the paper's arm (`ArmParams::default()`) with the patch described by
+//! `firmware/piezo.toml`. [`render`] reads such a fragment (with
+//! [`flexarm_beam::fragment::read_piezo`], the reader `flexarm-sim run` uses), refuses what the
+//! firmware cannot run, re-designs the observer gain for the patch's film map
+//! `c_f = k_s Δφ'` at the two motor periods the firmware has (0.001 s on the hardware board,
+//! 0.01 s under QEMU) and returns the Rust source of `firmware/src/generated.rs`.
+//!
+//! What the firmware cannot run, refused with a readable error:
+//! - anything `read_piezo` refuses (syntax, unknown or missing key, patch off link 2,
+//!   non-positive `k_c`, `k_a`, `k_s`, inconsistent derived keys);
+//! - `modes = "computed"`: the firmware keeps the paper's modal data (frequencies 4.716 and
+//!   14.395 Hz, uniform-link shapes); a patch for other modes would need another arm model in
+//!   the controller and in the QEMU plant, which this generator does not write;
+//! - a patch that leaves link 2 once rounded to `f32` (the firmware validates it in `f32` and
+//!   would start in the safe state), or values that are not finite in `f32`;
+//! - an observer design that fails, or whose constant gain does not give contracting error
+//!   dynamics over the arm's range `θ2 ∈ [−3, 3] rad`.
+//!
+//! The piezo gain follows `flexarm-sim run`: with `modes = "paper"`, `k_c_paper_modes` when the
+//! fragment has it (the gain that gives the paper's mode 1 the damping ratio the optimized `k_c`
+//! gives the design beam), else `k_c` ([`flexarm_beam::fragment::PiezoChoice::controller_k_c`]).
+
+use std::fmt::{self, Write as _};
+
+use flexarm_beam::design::{DesignModel, Weights};
+use flexarm_beam::fragment::{ModesChoice, PiezoChoice, piezo_fragment, read_piezo};
+use flexarm_beam::optimize::evaluate;
+use flexarm_core::Vector2;
+use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_core::model::Model;
+use flexarm_core::observer::{self, Gain, NoiseModel, film_map};
+use flexarm_core::observer_gains::THETA_NOMINAL;
+use flexarm_core::params::ArmParams;
+
+/// The fragment the firmware is built from, relative to the repository root.
+pub const DEFAULT_FRAGMENT: &str = "firmware/piezo.toml";
+/// The generated file, relative to the repository root.
+pub const DEFAULT_OUT: &str = "firmware/src/generated.rs";
+
+/// Motor periods the gains are designed for [s], with the names of their tables: the hardware
+/// board's 1 kHz motor loop and the QEMU board's 100 Hz.
+pub const PERIODS: [(&str, f64); 2] = [("GAIN_1KHZ", 1e-3), ("GAIN_100HZ", 1e-2)];
+
+/// Why the fragment cannot be turned into firmware parameters (one readable line).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Error(pub String);
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// Where the generated file says it came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Names<'a> {
+    /// The fragment, as given on the command line.
+    pub fragment: &'a str,
+    /// The generated file, as given on the command line.
+    pub out: &'a str,
+}
+
+impl Default for Names<'static> {
+    fn default() -> Self {
+        Self {
+            fragment: DEFAULT_FRAGMENT,
+            out: DEFAULT_OUT,
+        }
+    }
+}
+
+/// What the firmware runs, in `f64` as designed (the generated file rounds to `f32`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FirmwareParams {
+    /// The fragment as read.
+    pub choice: PiezoChoice,
+    /// The patch (paper's modes).
+    pub patch: PiezoPatch<f64>,
+    /// The piezo gain the controller uses [s].
+    pub k_c: f64,
+    /// Observer gains, one per entry of [`PERIODS`].
+    pub gains: [Gain<f64>; 2],
+}
+
+/// Reads `fragment_text`, checks that the firmware can run it and designs the observer gains.
+pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
+    let arm = ArmParams::<f64>::default();
+    let choice = read_piezo(fragment_text, arm.a2).map_err(|e| Error(one_line(&e.0)))?;
+    if choice.modes != ModesChoice::Paper {
+        return Err(Error(
+            "`piezo.modes = \"computed\"`: the firmware runs the paper's modal data; \
+             only `modes = \"paper\"` fragments can be generated (docs/firmware.md)"
+                .into(),
+        ));
+    }
+    let patch = choice.patch;
+    let k_c = choice.controller_k_c();
+    // The firmware validates the patch in f32 (Controller::new); refuse here what it would
+    // latch as an invalid configuration at boot.
+    let p32 = PiezoPatch {
+        x_a: patch.x_a as f32,
+        l_a: patch.l_a as f32,
+        slope_diff: patch.slope_diff.cast::<f32>(),
+        k_a: patch.k_a as f32,
+        k_s: patch.k_s as f32,
+    };
+    // (name, value in f32, must stay > 0 once rounded)
+    let values = [
+        ("x_a", p32.x_a, false),
+        ("l_a", p32.l_a, true),
+        ("k_a", p32.k_a, true),
+        ("k_s", p32.k_s, true),
+        ("slope_diff[0]", p32.slope_diff.x, false),
+        ("slope_diff[1]", p32.slope_diff.y, false),
+        ("k_c", k_c as f32, true),
+    ];
+    for (name, v, positive) in values {
+        if !v.is_finite() || (positive && v <= 0.0) {
+            return Err(Error(format!(
+                "`piezo.{name}` is {v} in f32: the firmware cannot use it"
+            )));
+        }
+    }
+    p32.validate(arm.a2 as f32).map_err(|e| {
+        Error(format!(
+            "rounded to f32 the patch [{}, {} + {}] m fails the firmware's check: {e}",
+            p32.x_a, p32.x_a, p32.l_a
+        ))
+    })?;
+
+    let model = Model::new(arm);
+    let c_f = film_map(&patch);
+    let theta = Vector2::new(THETA_NOMINAL[0] as f64, THETA_NOMINAL[1] as f64);
+    let noise = NoiseModel::default();
+    let mut gains = [Gain::<f64>::zeros(); 2];
+    for (g, (_, period)) in gains.iter_mut().zip(PERIODS) {
+        *g = observer::design(&model, &c_f, &theta, period, &noise).map_err(|e| {
+            Error(format!(
+                "observer design for the motor period {period} s failed: {e:?}"
+            ))
+        })?;
+        check_contraction(&model, &c_f, g, period)?;
+        if g.iter().any(|x| !(*x as f32).is_finite()) {
+            return Err(Error(format!(
+                "the observer gain for {period} s does not fit in f32"
+            )));
+        }
+    }
+    Ok(FirmwareParams {
+        choice,
+        patch,
+        k_c,
+        gains,
+    })
+}
+
+/// A message on one line (TOML syntax errors span several, with a caret under the column).
+fn one_line(msg: &str) -> String {
+    msg.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The estimation error `x⁺ = (I − LC) A x` must contract over the arm's range (the gain is
+/// constant, designed at the nominal configuration).
+fn check_contraction(
+    model: &Model<f64>,
+    c_f: &Vector2<f64>,
+    gain: &Gain<f64>,
+    period: f64,
+) -> Result<(), Error> {
+    for k in 0..=20 {
+        let th2 = -3.0 + 6.0 * f64::from(k) / 20.0;
+        let (a, c) = observer::linearization(model, c_f, &Vector2::new(0.0, th2), period)
+            .map_err(|e| Error(format!("observer linearization at θ2 = {th2} rad: {e:?}")))?;
+        let e = (nalgebra::SMatrix::<f64, 8, 8>::identity() - gain * c) * a;
+        let radii: Vec<f64> = e.complex_eigenvalues().iter().map(|z| z.norm()).collect();
+        // `all` with `<` also refuses a NaN radius.
+        if !radii.iter().all(|r| *r < 1.0 - 1e-6) {
+            let rho = radii.iter().copied().fold(f64::NAN, f64::max);
+            return Err(Error(format!(
+                "the observer gain for {period} s does not converge at θ2 = {th2} rad \
+                 (spectral radius {rho:.6}, film map c_f = [{:e}, {:e}] V/(√kg·m))",
+                c_f.x, c_f.y
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The Rust source of the firmware's generated parameters for `fragment_text`; `names` goes
+/// into the doc comments (source and the command that regenerates the file).
+pub fn render(fragment_text: &str, names: &Names<'_>) -> Result<String, Error> {
+    Ok(source(&design(fragment_text)?, names))
+}
+
+/// The Rust source for parameters already designed ([`design`]).
+pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
+    let f = |x: f64| format!("{:e}", x as f32);
+    let c_f = film_map(&p.patch);
+    let k_c_source = if p.choice.k_c_paper_modes.is_some() {
+        "`piezo.k_c_paper_modes`"
+    } else {
+        "`piezo.k_c`"
+    };
+    let mut s = format!(
+        "//! The piezo patch and observer gains the firmware runs (paper's arm, modes = \"paper\").\n\
+         //!\n\
+         //! Generated: do not edit. Source: `{frag}`. Regenerate with\n\
+         //! `cargo sim firmware-params {frag} --out {out}`\n\
+         //! (host-sim/src/firmware_params.rs); `cargo test -p flexarm-sim --test firmware_params`\n\
+         //! checks that it is what `firmware/piezo.toml` gives.\n\
+         //!\n\
+         //! Observer gains: steady-state Kalman gains (`flexarm_core::observer::design`,\n\
+         //! `NoiseModel::default()`) of the paper's arm at rest at `THETA_NOMINAL`, for this patch's\n\
+         //! film map `c_f = k_s Δφ' = [{cf0}, {cf1}]` V/(√kg·m).\n\
+         \n\
+         /// Patch start from joint 2 `x_a` [m].\n\
+         pub const X_A: f32 = {x_a};\n\
+         /// Patch length `l_a` [m].\n\
+         pub const L_A: f32 = {l_a};\n\
+         /// Slope differences `Δφ'_j` across the patch, paper's modes [1/(m·√kg)].\n\
+         pub const SLOPE_DIFF: [f32; 2] = [{sd0}, {sd1}];\n\
+         /// Actuator moment per volt `k_a` [N·m/V].\n\
+         pub const K_A: f32 = {k_a};\n\
+         /// Film volts per radian of slope difference `k_s` [V/rad].\n\
+         pub const K_S: f32 = {k_s};\n\
+         /// Rate-feedback gain `k_c` of `V_a = −k_c V̇_f` [s] (the fragment's {k_c_source}).\n\
+         pub const K_C: f32 = {k_c};\n",
+        frag = names.fragment,
+        out = names.out,
+        cf0 = f(c_f.x),
+        cf1 = f(c_f.y),
+        x_a = f(p.patch.x_a),
+        l_a = f(p.patch.l_a),
+        sd0 = f(p.patch.slope_diff.x),
+        sd1 = f(p.patch.slope_diff.y),
+        k_a = f(p.patch.k_a),
+        k_s = f(p.patch.k_s),
+        k_c = f(p.k_c),
+    );
+    for (g, (name, period)) in p.gains.iter().zip(PERIODS) {
+        let _ = write!(
+            s,
+            "\n/// Observer gain `L` (8×3, row-major; rows `(q, q̇)`, columns `(θ1, θ2, V_f)`) for a\n\
+             /// motor period of {period} s.\n\
+             pub const {name}: [[f32; 3]; 8] = [\n"
+        );
+        for i in 0..8 {
+            let _ = writeln!(
+                s,
+                "    [{}, {}, {}],",
+                f(g[(i, 0)]),
+                f(g[(i, 1)]),
+                f(g[(i, 2)])
+            );
+        }
+        s += "];\n";
+    }
+    s
+}
+
+/// The paper's patch (`x_a = 0.09 m`, `l_a = 0.35 m`) with `k_c = 30 s` on the paper's modes as a
+/// `[piezo]` fragment, written by the optimizer's own code path
+/// ([`flexarm_beam::fragment::piezo_fragment`]): the default `firmware/piezo.toml`.
+///
+/// `k_c = 30 s` is the core's default gain on the paper's modes (`PiezoGains::default()`), so the
+/// fragment leaves out `k_c_paper_modes` (the optimizer's conversion from the design beam).
+pub fn paper_fragment() -> Result<String, Error> {
+    let model = DesignModel::default();
+    let arm = ArmParams::<f64>::default();
+    let opt = evaluate(&model, &Weights::default(), 0.09, 0.35, 30.0)
+        .ok_or_else(|| Error("the paper's patch could not be evaluated".into()))?;
+    let text = piezo_fragment(&model, &opt, &arm);
+    let body: String = text
+        .lines()
+        .filter(|l| !l.starts_with("k_c_paper_modes =") && !l.starts_with("# Piezo patch chosen"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    Ok(format!(
+        "# The patch the firmware runs: `cargo sim firmware-params` turns this file into\n\
+         # firmware/src/generated.rs (docs/firmware.md). Default: the paper's patch, written by\n\
+         # `cargo sim firmware-params --paper-fragment`; replace it with the optimizer's\n\
+         # out/optimize/piezo.toml to run that patch. Keys and units: docs/optimization.md.\n\
+         # k_c applies to the paper's modes as written (no k_c_paper_modes: the core's default 30 s).\n\
+         {body}"
+    ))
+}

@@ -1,0 +1,145 @@
+//! The firmware's generated parameters: `firmware/src/generated.rs` is what `firmware/piezo.toml`
+//! renders to, the paper's patch gives the blessed observer gains, another patch gets its own,
+//! and what the firmware cannot run is a readable one-line error.
+
+use flexarm_beam::design::{DesignModel, Weights};
+use flexarm_beam::fragment::{ModesChoice, piezo_fragment, read_piezo};
+use flexarm_beam::optimize::evaluate;
+use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
+use flexarm_core::observer_gains::{GAIN_1KHZ, GAIN_100HZ};
+use flexarm_core::params::ArmParams;
+use flexarm_sim::firmware_params::{Names, design, paper_fragment, render};
+
+fn repo(path: &str) -> String {
+    format!("{}/../{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn generated_file_is_up_to_date_with_the_fragment() {
+    let fragment = std::fs::read_to_string(repo("firmware/piezo.toml")).unwrap();
+    let fresh = render(&fragment, &Names::default()).unwrap();
+    let current = std::fs::read_to_string(repo("firmware/src/generated.rs")).unwrap();
+    assert!(
+        current == fresh,
+        "firmware/src/generated.rs is stale (not what firmware/piezo.toml renders to): \
+         run `cargo sim firmware-params` from the repository root"
+    );
+}
+
+#[test]
+fn paper_fragment_is_the_cores_paper_patch() {
+    let text = paper_fragment().unwrap();
+    let arm = ArmParams::<f64>::default();
+    let c = read_piezo(&text, arm.a2).unwrap();
+    assert_eq!(c.patch, PiezoPatch::<f64>::paper());
+    assert_eq!(c.modes, ModesChoice::Paper);
+    assert_eq!(c.controller_k_c(), PiezoGains::<f64>::default().k_c);
+    assert_eq!(c.controller_k_c(), 30.0);
+    // Same keys as the optimizer writes, minus the gain conversion.
+    assert!(text.contains("[piezo.computed]"));
+    assert!(!text.lines().any(|l| l.starts_with("k_c_paper_modes")));
+}
+
+#[test]
+fn paper_patch_gives_the_blessed_observer_gains() {
+    let p = design(&paper_fragment().unwrap()).unwrap();
+    for (g, table) in p.gains.iter().zip([&GAIN_1KHZ, &GAIN_100HZ]) {
+        for (i, row) in table.iter().enumerate() {
+            for (j, blessed) in row.iter().enumerate() {
+                assert_eq!(g[(i, j)] as f32, *blessed, "L[{i}][{j}]");
+            }
+        }
+    }
+    // And the rendered file carries them in the same notation as core/src/observer_gains.rs.
+    let src = render(&paper_fragment().unwrap(), &Names::default()).unwrap();
+    let core = std::fs::read_to_string(repo("core/src/observer_gains.rs")).unwrap();
+    for row in core.lines().filter(|l| l.starts_with("    [")) {
+        assert!(src.contains(row), "{row}");
+    }
+    assert!(src.contains("pub const K_C: f32 = 3e1;"), "{src}");
+    assert!(src.contains("pub const X_A: f32 = 9e-2;"), "{src}");
+}
+
+#[test]
+fn another_patch_gets_its_own_film_gains() {
+    let model = DesignModel::default();
+    let arm = ArmParams::<f64>::default();
+    let opt = evaluate(&model, &Weights::default(), 0.0, 0.5, 200.0).unwrap();
+    let text = piezo_fragment(&model, &opt, &arm);
+    let p = design(&text).unwrap();
+    let paper = design(&paper_fragment().unwrap()).unwrap();
+    // The film column (V_f → states) is re-designed for the new film map (the modal rates'
+    // entries move by tens of per cent).
+    for k in 0..2 {
+        let rel = (0..8)
+            .map(|i| (p.gains[k][(i, 2)] / paper.gains[k][(i, 2)] - 1.0).abs())
+            .fold(0.0, f64::max);
+        assert!(rel > 0.2, "period {k}: film gains barely changed ({rel})");
+    }
+    assert_eq!(p.patch.x_a, 0.0);
+    assert_eq!(p.patch.l_a, 0.5);
+    // The gain on the paper's modes is the fragment's conversion, as `flexarm-sim run` uses.
+    let c = read_piezo(&text, arm.a2).unwrap();
+    assert_eq!(Some(p.k_c), c.k_c_paper_modes);
+    assert_ne!(p.k_c, 200.0);
+    let src = render(
+        &text,
+        &Names {
+            fragment: "out/optimize/piezo.toml",
+            out: "/tmp/generated.rs",
+        },
+    )
+    .unwrap();
+    assert!(
+        src.contains("`cargo sim firmware-params out/optimize/piezo.toml --out /tmp/generated.rs`")
+    );
+    assert!(src.contains(&format!("pub const K_C: f32 = {:e};", p.k_c as f32)));
+}
+
+#[test]
+fn what_the_firmware_cannot_run_is_a_readable_error() {
+    let ok = paper_fragment().unwrap();
+    let set = |key: &str, value: &str| {
+        ok.lines()
+            .map(|l| {
+                if l.starts_with(&format!("{key} = ")) {
+                    format!("{key} = {value}")
+                } else {
+                    l.to_string()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    let cases = [
+        (set("x_a", "0.5"), "must lie on link 2"),
+        (set("k_c", "0.0"), "`piezo.k_c` = 0 must be > 0"),
+        (set("k_c", "-3.0"), "`piezo.k_c` = -3 must be > 0"),
+        (
+            ok.replace("[piezo]\n", "[piezo]\ngain = 3.0\n"),
+            "unknown field `gain`",
+        ),
+        (
+            set("modes", "\"computed\""),
+            "the firmware runs the paper's modal data",
+        ),
+        // On the link in f64 (0.3 + 0.4 = 0.7), off it once rounded to f32 as the firmware
+        // checks it.
+        (set("x_a", "0.3").replace("l_a = 0.35", "l_a = 0.4"), "f32"),
+        // Positive in f64, zero in f32.
+        (set("k_c", "1e-50"), "`piezo.k_c` is 0 in f32"),
+        ("[piezo\nx_a = 1".to_string(), "unclosed table"),
+        ("[arm]\nm2 = 0.3\n".to_string(), "no [piezo] table"),
+    ];
+    for (text, needle) in cases {
+        match design(&text) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => {
+                let msg = e.to_string();
+                assert!(msg.contains(needle), "{needle:?} not in {msg:?}");
+                assert!(!msg.contains('\n'), "more than one line: {msg:?}");
+                assert!(render(&text, &Names::default()).is_err());
+            }
+        }
+    }
+}
