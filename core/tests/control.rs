@@ -9,6 +9,7 @@ use flexarm_core::control::tracking::eq7;
 use flexarm_core::limits::saturate;
 use flexarm_core::model::Model;
 use flexarm_core::params::{ArmParams, Gains, Limits};
+use flexarm_core::real::all_finite;
 use flexarm_core::trajectory::JointTarget;
 use flexarm_core::{Fault, Vector2, Vector4};
 use proptest::prelude::*;
@@ -62,6 +63,20 @@ proptest! {
         prop_assert!(y.is_finite() && y.abs() <= lim);
         if x.is_nan() { prop_assert_eq!(y, 0.0); }
         if x.is_finite() && x.abs() <= lim { prop_assert_eq!(y, x); }
+    }
+
+    /// `all_finite` never passes a NaN or ±∞, and passes every group of physical magnitude.
+    #[test]
+    fn all_finite_rejects_every_non_finite_value(bits in any::<[u32; 4]>(), small in any::<[i16; 4]>()) {
+        let xs = bits.map(f32::from_bits);
+        if all_finite(xs) {
+            prop_assert!(xs.iter().all(|x| x.is_finite()));
+        }
+        prop_assert!(all_finite(small.map(f32::from)));
+        let with = |v: f32| { let mut ys = small.map(f32::from); ys[2] = v; ys };
+        prop_assert!(!all_finite(with(f32::NAN)));
+        prop_assert!(!all_finite(with(f32::INFINITY)));
+        prop_assert!(!all_finite(with(f32::NEG_INFINITY)));
     }
 
     /// The motor step's torques are finite and inside their limits for any finite state.
