@@ -2,8 +2,8 @@
 //!
 //! Generated: do not edit. Source: `firmware/piezo.toml`. Regenerate with
 //! `cargo sim firmware-params firmware/piezo.toml --out firmware/src/generated.rs`
-//! (host-sim/src/firmware_params.rs); `cargo test -p flexarm-sim --test firmware_params`
-//! checks that it is what `firmware/piezo.toml` gives.
+//! (host-sim/src/firmware_params.rs). `cargo test -p flexarm-sim --test firmware_params`
+//! checks that `firmware/src/generated.rs` is what `firmware/piezo.toml` gives.
 //!
 //! Observer gains: steady-state Kalman gains (`flexarm_core::observer::design`,
 //! `NoiseModel::default()`) of the paper's arm at rest at `THETA_NOMINAL`, for this patch's

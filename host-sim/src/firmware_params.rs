@@ -214,8 +214,8 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
          //!\n\
          //! Generated: do not edit. Source: `{frag}`. Regenerate with\n\
          //! `cargo sim firmware-params {frag} --out {out}`\n\
-         //! (host-sim/src/firmware_params.rs); `cargo test -p flexarm-sim --test firmware_params`\n\
-         //! checks that it is what `firmware/piezo.toml` gives.\n\
+         //! (host-sim/src/firmware_params.rs). `cargo test -p flexarm-sim --test firmware_params`\n\
+         //! checks that `firmware/src/generated.rs` is what `firmware/piezo.toml` gives.\n\
          //!\n\
          //! Observer gains: steady-state Kalman gains (`flexarm_core::observer::design`,\n\
          //! `NoiseModel::default()`) of the paper's arm at rest at `THETA_NOMINAL`, for this patch's\n\
