@@ -14,9 +14,10 @@
 //! at a nominal configuration ([`design`]), with white acceleration disturbances on the joints
 //! and the modes and white measurement noise (encoder quantization, film-voltage noise).
 //! `design` is `no_std` and allocation-free, but iterates the Riccati equation in `f64`: run it on
-//! the host. The firmware takes the `f32` gains from `observer_gains.rs`, written by
+//! the host. `observer_gains.rs` holds the `f32` gains for the paper's patch, written by
 //! `FLEXARM_BLESS=1 cargo test -p flexarm-core --test observer`, which also checks that the
-//! checked-in gains are the design's.
+//! checked-in gains are the design's. The firmware takes the gains designed for its own patch
+//! from `firmware/src/generated.rs` (`cargo sim firmware-params`, `docs/firmware.md`).
 
 use nalgebra::{SMatrix, SVector};
 
