@@ -16,6 +16,23 @@
 //!
 //! `C` comes from the Christoffel symbols of `B`, written as `C = ½(Ḃ + Y − Yᵀ)` with
 //! `Y_ij = Σ_k ∂b_ik/∂q_j q̇_k`, so `Ḃ − 2C = Yᵀ − Y` is skew-symmetric by construction.
+//!
+//! ## Closed forms of `C` on the hot path
+//! Only `θ2` and `δ` enter `B`, and `∂h/∂δ_k = ∂b1,2+k/∂θ2 = −a1 v_k sin θ2 =: e_k`. The
+//! derivative of `B` along any vector `x`, `Σ_k ∂B/∂q_k x_k`, is therefore the joint block
+//! `[[J_x + 2H_x, J_x + H_x], [J_x + H_x, J_x]]` plus `e_k x1` in the entries `(1, 2+k)` and
+//! `(2+k, 1)`, with `J_x = 2δᵀx_δ` and `H_x = ∂h/∂θ2 · x1 + eᵀx_δ`. Put into the Christoffel
+//! sums, most products cancel; with `σ = q̇0 + q̇1`, `j = δᵀq̇_δ`, `a = j + eᵀq̇_δ` and the same
+//! `(σ_v, j_v, a_v)` of a vector `v` (indices from 0):
+//!
+//! - `(C v)_0 = a σ_v + a_v σ + ∂h/∂θ2 · (q̇1 σ_v + q̇0 v1)`,
+//! - `(C v)_1 = j σ_v + j_v σ − ∂h/∂θ2 · q̇0 v0`,
+//! - `(C q̇)_{2+k} = −e_k q̇0² − δ_k σ²` (the centripetal forces on the modes).
+//!
+//! For the rigid arm (`δ = 0`) the joint rows reduce to the textbook `C = [[−hθ̇2, −h(θ̇1+θ̇2)],
+//! [hθ̇1, 0]]` with `h = −∂h/∂θ2`. These are what the motor law and the forward dynamics
+//! evaluate (about 20 operations each); `core/tests/model.rs` checks them against the full
+//! Christoffel matrix.
 
 use crate::params::ArmParams;
 use crate::real::Real;
@@ -396,43 +413,43 @@ impl<T: Real> Terms<T> {
         (b_dot_v + y_v - yt_v) * T::c(0.5)
     }
 
-    /// The Coriolis and centrifugal forces `C(q, q̇) q̇` (forward dynamics): with `v = q̇`,
-    /// `Ḃq̇ = Yq̇`, so `C q̇ = Ḃq̇ − ½ Yᵀq̇`, where `(Yᵀq̇)_k = q̇ᵀ (∂B/∂q_k) q̇`.
+    /// The three scalars of a velocity-like vector `x` that the closed forms of `C` need:
+    /// `σ = x0 + x1` (the rate of `α = θ1 + θ2`), `j = δᵀ x_δ` and
+    /// `a = j + (∂b13/∂θ2) x2 + (∂b14/∂θ2) x3`.
+    #[inline(always)]
+    fn rates(&self, x: &Vector4<T>) -> (T, T, T) {
+        let j = self.d1 * x.z + self.d2 * x.w;
+        (x.x + x.y, j, j + (self.d13 * x.z + self.d14 * x.w))
+    }
+
+    /// The Coriolis and centrifugal forces `C(q, q̇) q̇` (forward dynamics), in closed form
+    /// (module docs): with `(σ, j, a)` of `q̇` ([`Self::rates`]),
+    /// `[2σa + ∂h/∂θ2 · θ̇2 (σ + θ̇1),  2σj − ∂h/∂θ2 · θ̇1²,  −∂b1,2+k/∂θ2 · θ̇1² − δ_k σ²]`.
+    #[inline(always)]
     pub fn coriolis_vector(&self, qd: &Vector4<T>) -> Vector4<T> {
-        let (w0, w1, w2, w3) = (qd.x, qd.y, qd.z, qd.w);
-        let half = T::c(0.5);
-        // ∂B/∂θ2 q̇ and ∂B/∂δj q̇ (joint block only).
-        let p = self.p_times(qd);
-        let g1 = Self::q_block(self.d1, self.d13, w0, w1);
-        let g2 = Self::q_block(self.d2, self.d14, w0, w1);
-        // q̇ᵀ ∂B/∂θ2 q̇ = q̇ · p.
-        let qpq = w0 * p.x + w1 * p.y + w2 * p.z + w3 * p.w;
+        let (s, j, a) = self.rates(qd);
+        let two_s = s + s;
+        let w0_sq = qd.x * qd.x;
+        let s_sq = s * s;
         Vector4::new(
-            w1 * p.x + w2 * g1.0 + w3 * g2.0,
-            w1 * p.y + w2 * g1.1 + w3 * g2.1 - half * qpq,
-            w1 * p.z - half * (w0 * g1.0 + w1 * g1.1),
-            w1 * p.w - half * (w0 * g2.0 + w1 * g2.1),
+            two_s * a + self.dh * qd.y * (s + qd.x),
+            two_s * j - self.dh * w0_sq,
+            -(self.d13 * w0_sq + self.d1 * s_sq),
+            -(self.d14 * w0_sq + self.d2 * s_sq),
         )
     }
 
-    /// The joint rows of `C(q, q̇) v`: all the motors need.
+    /// The joint rows of `C(q, q̇) v`, all the motors need, in closed form (module docs): with
+    /// `(σ, j, a)` of `q̇` and `(σ_v, j_v, a_v)` of `v` ([`Self::rates`]),
+    /// `[a σ_v + a_v σ + ∂h/∂θ2 (θ̇2 σ_v + θ̇1 v1),  j σ_v + j_v σ − ∂h/∂θ2 · θ̇1 v0]`.
     #[inline(always)]
     pub fn c_times_joints(&self, qd: &Vector4<T>, v: &Vector4<T>) -> Vector2<T> {
-        let (w0, w1, w2, w3) = (qd.x, qd.y, qd.z, qd.w);
-        let (v0, v1, v2, v3) = (v.x, v.y, v.z, v.w);
-        let two = T::c(2.0);
-        let q1v = Self::q_block(self.d1, self.d13, v0, v1);
-        let q2v = Self::q_block(self.d2, self.d14, v0, v1);
-        let g1 = Self::q_block(self.d1, self.d13, w0, w1);
-        let g2 = Self::q_block(self.d2, self.d14, w0, w1);
-        let pq0 = two * self.dh * w0 + self.dh * w1 + self.d13 * w2 + self.d14 * w3;
-        let pv0 = two * self.dh * v0 + self.dh * v1 + self.d13 * v2 + self.d14 * v3;
-        let pq_dot_v = pq0 * v0 + w0 * (self.dh * v1 + self.d13 * v2 + self.d14 * v3);
-        let r0 = pv0 * w1 + q1v.0 * w2 + q2v.0 * w3 + pq0 * v1 + g1.0 * v2 + g2.0 * v3;
-        let r1 =
-            self.dh * v0 * w1 + q1v.1 * w2 + q2v.1 * w3 + self.dh * w0 * v1 + g1.1 * v2 + g2.1 * v3
-                - pq_dot_v;
-        Vector2::new(r0, r1) * T::c(0.5)
+        let (s, j, a) = self.rates(qd);
+        let (s_v, j_v, a_v) = self.rates(v);
+        Vector2::new(
+            a * s_v + a_v * s + self.dh * (qd.y * s_v + qd.x * v.y),
+            j * s_v + j_v * s - self.dh * qd.x * v.x,
+        )
     }
 
     /// `S⁻¹`, the inverse of the Schur complement `S = B_θθ − B_θδ B_θδᵀ`; `None` unless `S` is
