@@ -17,7 +17,7 @@ use crate::fault::Fault;
 use crate::model::Model;
 use crate::observer::{Gain, Measurement, Observer, film_map};
 use crate::params::{ArmParams, Gains, Limits};
-use crate::real::Real;
+use crate::real::{Real, all_finite};
 use crate::supervisor::{Command, SafetyLatch, SensorLimits, Staleness};
 use crate::trajectory::JointTrajectory;
 use crate::{Vector2, Vector4};
@@ -83,6 +83,7 @@ impl<T: Real> Controller<T> {
             && motor.gains.validate().is_ok()
             && motor.limits.validate().is_ok()
             && patch.validate(motor.model.params.a2).is_ok()
+            && observer.is_finite()
             && motor_period.finite()
             && motor_period > T::zero();
         if !valid {
@@ -182,20 +183,24 @@ impl<T: Real> Controller<T> {
     }
 
     /// Clears the latch and restarts the filters and the observer at the encoder angles
-    /// `theta` [rad].
+    /// `theta` [rad]. Angles that are not finite trip [`Fault::NonFinite`] at once.
     pub fn reset(&mut self, theta: Vector2<T>) {
         self.latch.reset();
         self.piezo.reset();
-        self.observer.reset(theta);
-        self.previous = None;
         self.v_a = T::zero();
+        self.reset_observer(theta);
     }
 
     /// Restarts the observer at rest at the encoder angles `theta` [rad], undeformed (at
-    /// power-up, before the loops start). The latch is not touched.
+    /// power-up, before the loops start). The latch is not cleared; angles that are not finite
+    /// trip [`Fault::NonFinite`] and leave the estimate as it was.
     pub fn reset_observer(&mut self, theta: Vector2<T>) {
-        self.observer.reset(theta);
         self.previous = None;
+        if all_finite([theta.x, theta.y]) {
+            self.observer.reset(theta);
+        } else {
+            self.trip(Fault::NonFinite);
+        }
     }
 
     /// One motor step at `t` [s] since the trajectory started. `y` is `None` when no new
@@ -235,6 +240,12 @@ impl<T: Real> Controller<T> {
         if self.latch.fault().is_some() {
             return None;
         }
+        // The estimate is finite by construction (`Observer::is_finite`): of the law's inputs
+        // only the caller's clock needs a check.
+        if !t.finite() {
+            self.trip(Fault::NonFinite);
+            return None;
+        }
         let stale = self.staleness.tick(y.is_some());
         self.latch.check(stale)?;
         if let Some(y) = y {
@@ -242,7 +253,8 @@ impl<T: Real> Controller<T> {
                 .sensors
                 .check(y, self.previous.as_ref(), self.motor_period);
             self.latch.check(checked)?;
-            self.latch.check(self.observer.correct(y))?;
+            // The range check has rejected NaN and ±∞.
+            self.observer.correct_finite(y);
             self.previous = Some(*y);
         }
         let (q_hat, qd_hat) = self.observer.state();
@@ -252,9 +264,7 @@ impl<T: Real> Controller<T> {
         let target = self.trajectory.sample(t);
         let out = match full {
             Some((q, qd)) => self.motor.step(t, q, qd, &target),
-            None => self
-                .motor
-                .step_with(&terms_hat, t, &q_hat, &qd_hat, &target),
+            None => self.motor.law_with(&terms_hat, t, &q_hat, &qd_hat, &target),
         };
         let out = self.latch.check(out)?;
         let u = Vector4::new(out.tau.x, out.tau.y, T::zero(), T::zero())

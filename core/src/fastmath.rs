@@ -31,20 +31,40 @@ fn round_small(y: f32) -> f32 {
     (y + ROUND_SHIFT) - ROUND_SHIFT
 }
 
-/// `(sin x, cos x)` for `f32`, float-only for `|x| ≤ 10⁴`.
+/// `(sin x, cos x)` for `f32`, float-only for `|x| ≤ 10⁴`. Inlined: the hot path is about 30
+/// instructions, and a call would add a fifth to it.
+#[inline(always)]
 pub fn sin_cos(x: f32) -> (f32, f32) {
     // One comparison sends NaN, ±∞ and |x| > 10⁴ to the slow path.
     #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
     if !(x.abs() <= 1.0e4) {
-        if !x.is_finite() {
-            return (f32::NAN, f32::NAN);
-        }
-        // Far outside any joint range: fold by whole turns in f32 first. The fold loses about
-        // |x|·2⁻²⁴ rad of accuracy but stays finite and in range, and keeps the software-f64
-        // reduction of `libm::sincosf` (7 KiB of flash) out of the firmware.
-        let turns = libm::rintf(x / core::f32::consts::TAU);
-        return sin_cos(x - turns * core::f32::consts::TAU);
+        return sin_cos_far(x);
     }
+    sin_cos_reduced(x)
+}
+
+/// [`sin_cos`] outside `|x| ≤ 10⁴`: far outside any joint range, folded by whole turns in
+/// `f32` first. The fold loses about `|x|·2⁻²⁴` rad of accuracy but stays finite and in range,
+/// and keeps the software-`f64` reduction of `libm::sincosf` (7 KiB of flash) out of the
+/// firmware.
+#[cold]
+#[inline(never)]
+fn sin_cos_far(x: f32) -> (f32, f32) {
+    if !x.is_finite() {
+        return (f32::NAN, f32::NAN);
+    }
+    // Each fold leaves at most π plus the rounding of `turns·2π` (about |y|·2⁻²³): a few folds
+    // reach the fast range.
+    let mut y = x;
+    while y.abs() > 1.0e4 {
+        y -= libm::rintf(y / core::f32::consts::TAU) * core::f32::consts::TAU;
+    }
+    sin_cos_reduced(y)
+}
+
+/// The float-only evaluation for `|x| ≤ 10⁴`.
+#[inline(always)]
+fn sin_cos_reduced(x: f32) -> (f32, f32) {
     const TWO_OVER_PI: f32 = core::f32::consts::FRAC_2_PI;
     // π/2 = P1 + P2 + P3; P1 and P2 carry few significant bits so k·P1, k·P2 are exact.
     const P1: f32 = 1.570_312_5;
@@ -70,7 +90,8 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     }
 }
 
-/// `eˣ` for `f32`, float-only (module docs: error bound, range).
+/// `eˣ` for `f32`, float-only (module docs: error bound, range). Inlined, as [`sin_cos`].
+#[inline(always)]
 pub fn exp(x: f32) -> f32 {
     // One comparison sends NaN and the underflow and overflow ranges to the slow path.
     if !(-87.0..=88.0).contains(&x) {

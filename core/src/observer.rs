@@ -63,6 +63,17 @@ impl<T: Real> Observer<T> {
         }
     }
 
+    /// `true` if the estimate, the gain, the film map and the period are all finite. The
+    /// [`crate::controller::Controller`] checks it at construction and keeps it true: the
+    /// correction then only adds finite terms (its samples are range-checked) and the
+    /// prediction refuses a non-finite result.
+    pub fn is_finite(&self) -> bool {
+        let (q, qd) = (&self.q, &self.qd);
+        all_finite([q.x, q.y, q.z, q.w, qd.x, qd.y, qd.z, qd.w])
+            && self.gain.iter().all(|g| g.finite())
+            && all_finite([self.c_f.x, self.c_f.y, self.period])
+    }
+
     /// Estimated `(q, q̇)`.
     pub fn state(&self) -> (Vector4<T>, Vector4<T>) {
         (self.q, self.qd)
@@ -83,13 +94,20 @@ impl<T: Real> Observer<T> {
         if !all_finite([y.theta.x, y.theta.y, y.v_f]) {
             return Err(Fault::NonFinite);
         }
+        self.correct_finite(y);
+        Ok(())
+    }
+
+    /// [`Self::correct`] for a measurement the caller has already checked to be finite (the
+    /// controller's range check rejects NaN and ±∞).
+    #[inline(always)]
+    pub fn correct_finite(&mut self, y: &Measurement<T>) {
         let r = self.residual(y);
         let l = &self.gain;
         // x̂ += L r, row by row (no temporary 8-vector).
         let row = |i: usize| l[(i, 0)] * r.x + l[(i, 1)] * r.y + l[(i, 2)] * r.z;
         self.q += Vector4::new(row(0), row(1), row(2), row(3));
         self.qd += Vector4::new(row(4), row(5), row(6), row(7));
-        Ok(())
     }
 
     /// Prediction over one period with the generalized force `u` just applied (joint torques

@@ -159,6 +159,60 @@ fn overrun_amplifier_and_watchdog_from_outside() {
 }
 
 #[test]
+fn non_finite_clock() {
+    inject(
+        |c| c.motor_step(f32::NAN, Some(&y(0.0, 0.0, 0.0))).command,
+        Fault::NonFinite,
+    );
+}
+
+/// The controller keeps its estimate finite: a reset at non-finite encoder angles trips at once
+/// and leaves the estimate as it was.
+#[test]
+fn reset_at_non_finite_angles() {
+    let mut c = controller();
+    let before = c.estimate();
+    c.reset_observer(Vector2::new(0.1, f32::INFINITY));
+    assert_eq!(c.fault(), Some(Fault::NonFinite));
+    assert_eq!(c.estimate(), before);
+    c.reset(Vector2::new(f32::NAN, 0.0));
+    assert_eq!(c.fault(), Some(Fault::NonFinite));
+    assert_eq!(c.estimate(), before);
+    assert_eq!(
+        c.motor_step(0.0, Some(&y(0.0, 0.0, 0.0))).command,
+        Command::safe()
+    );
+    c.reset(Vector2::new(0.1, 0.2));
+    assert_eq!(c.fault(), None);
+    assert_eq!(c.estimate().0.xy(), Vector2::new(0.1, 0.2));
+}
+
+#[test]
+fn non_finite_observer_is_an_invalid_configuration() {
+    let arm = ArmParams::<f32>::default();
+    let limits = Limits::default();
+    let patch = PiezoPatch::<f32>::paper();
+    let mut l = gain(&GAIN_1KHZ);
+    l[(5, 2)] = f32::NAN;
+    let c = Controller::new(
+        MotorController {
+            model: Model::new(arm),
+            gains: Gains::default(),
+            limits,
+            law: MotorLaw::Tracking,
+        },
+        PiezoLaw::new(&PiezoGains::default(), 1e-4, limits.v_a_max),
+        patch,
+        Observer::new(l, film_map(&patch), 1e-3, Vector2::zeros()),
+        SensorLimits::default(),
+        JointTrajectory::Hold(Vector2::zeros()),
+        1e-3,
+        3,
+    );
+    assert_eq!(c.fault(), Some(Fault::InvalidConfig));
+}
+
+#[test]
 fn invalid_configuration_starts_in_the_safe_state() {
     let arm = ArmParams::<f32> {
         m2: -1.0,

@@ -55,12 +55,18 @@ impl<T: Real> MotorController<T> {
         qd: &Vector4<T>,
         target: &JointTarget<T>,
     ) -> Result<MotorOutput<T>, Fault> {
-        self.step_with(&self.model.terms(q), t, q, qd, target)
+        if !all_finite([t, q.x, q.y, q.z, q.w, qd.x, qd.y, qd.z, qd.w]) {
+            return Err(Fault::NonFinite);
+        }
+        self.law_with(&self.model.terms(q), t, q, qd, target)
     }
 
-    /// [`Self::step`] with the terms of `B(q)` already computed (shared with the observer).
+    /// The law of [`Self::step`] with the terms of `B(q)` already computed (shared with the
+    /// observer), for a time and a state the caller already knows to be finite (the
+    /// [`crate::controller::Controller`] keeps its estimate finite). A torque that is not
+    /// finite all the same (an overflow) is a [`Fault::Singular`].
     #[inline(always)]
-    pub fn step_with(
+    pub fn law_with(
         &self,
         terms: &Terms<T>,
         t: T,
@@ -68,9 +74,6 @@ impl<T: Real> MotorController<T> {
         qd: &Vector4<T>,
         target: &JointTarget<T>,
     ) -> Result<MotorOutput<T>, Fault> {
-        if !all_finite([t, q.x, q.y, q.z, q.w, qd.x, qd.y, qd.z, qd.w]) {
-            return Err(Fault::NonFinite);
-        }
         let r = Reference::new(&self.gains.lambda, q, qd, target);
         let mut tau = eq7_joints(terms, qd, &self.gains.kp, &r);
         if self.law == MotorLaw::Robust {

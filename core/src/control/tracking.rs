@@ -35,11 +35,22 @@ impl<T: Real> Reference<T> {
         qd: &Vector4<T>,
         target: &JointTarget<T>,
     ) -> Self {
-        let (q_d, qd_d, qdd_d) = target.generalized();
-        let q_tilde = q - q_d;
-        let qd_tilde = qd - qd_d;
-        let qd_r = qd_d - lambda.component_mul(&q_tilde);
-        let qdd_r = qdd_d - lambda.component_mul(&qd_tilde);
+        // δ_d = δ̇_d = δ̈_d = 0: the modal rows are written out rather than computed from zeros
+        // (IEEE arithmetic cannot drop `0 − x`).
+        let l = lambda;
+        let q_tilde = Vector4::new(q.x - target.q.x, q.y - target.q.y, q.z, q.w);
+        let qd_r = Vector4::new(
+            target.qd.x - l.x * q_tilde.x,
+            target.qd.y - l.y * q_tilde.y,
+            -(l.z * q.z),
+            -(l.w * q.w),
+        );
+        let qdd_r = Vector4::new(
+            target.qdd.x - l.x * (qd.x - target.qd.x),
+            target.qdd.y - l.y * (qd.y - target.qd.y),
+            -(l.z * qd.z),
+            -(l.w * qd.w),
+        );
         Self {
             q_tilde,
             qd_r,
