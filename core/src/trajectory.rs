@@ -120,6 +120,7 @@ impl<T: Real> Profile<T> {
     }
 
     /// `(s, ṡ, s̈)` at time `t` [s]; 0 before the start, 1 after the end.
+    #[inline(always)]
     pub fn sample(&self, t: T) -> (T, T, T) {
         let half = T::c(0.5);
         let z = T::zero();
@@ -175,6 +176,7 @@ impl<T: Real> Trapezoid<T> {
     }
 
     /// Desired motion at `t` [s].
+    #[inline(always)]
     pub fn sample(&self, t: T) -> JointTarget<T> {
         let (s, sd, sdd) = self.profile.sample(t);
         JointTarget {
@@ -305,6 +307,7 @@ impl<T: Real> Circle<T> {
     }
 
     /// Desired joint motion at `t` [s].
+    #[inline(never)]
     pub fn sample(&self, t: T) -> JointTarget<T> {
         let (p, v, a) = self.tip(t);
         // Reachability with margin was proven at construction: the negative margin here only
@@ -337,6 +340,7 @@ pub enum JointTrajectory<T> {
 
 impl<T: Real> JointTrajectory<T> {
     /// Desired joint motion at `t` [s] since the start.
+    #[inline(always)]
     pub fn sample(&self, t: T) -> JointTarget<T> {
         match self {
             Self::Hold(q) => JointTarget::rest(*q),

@@ -88,11 +88,12 @@ impl<T: Real> MotorController<T> {
         if !all_finite([tau.x, tau.y]) {
             return Err(Fault::Singular);
         }
-        let sat = saturate2(&tau, &self.limits.tau_max);
+        let lim = &self.limits.tau_max;
         Ok(MotorOutput {
-            tau: sat,
+            tau: saturate2(&tau, lim),
             error: Vector2::new(r.q_tilde.x, r.q_tilde.y),
-            saturated: sat != tau,
+            // The comparisons of `saturate`'s own fast path (τ is finite here).
+            saturated: !(tau.x.abs() <= lim.x && tau.y.abs() <= lim.y),
         })
     }
 }
