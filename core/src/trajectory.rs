@@ -94,6 +94,10 @@ pub struct Profile<T> {
     rate: T,
     /// Acceleration `rate/t_a` [1/s²].
     accel: T,
+    /// Start of the deceleration `T − t_a` [s].
+    cruise_end: T,
+    /// `s` at the end of the first ramp, `accel t_a²/2`.
+    s_ramp: T,
 }
 
 impl<T: Real> Profile<T> {
@@ -105,13 +109,21 @@ impl<T: Real> Profile<T> {
         if duration <= T::zero() || ramp <= T::zero() || ramp * T::c(2.0) > duration {
             return Err(TrajectoryError::InvalidTiming);
         }
+        Ok(Self::from_timing(duration, ramp))
+    }
+
+    /// The profile of timings that [`Self::new`] accepts.
+    fn from_timing(duration: T, ramp: T) -> Self {
         let rate = T::one() / (duration - ramp);
-        Ok(Self {
+        let accel = rate / ramp;
+        Self {
             duration,
             ramp,
             rate,
-            accel: rate / ramp,
-        })
+            accel,
+            cruise_end: duration - ramp,
+            s_ramp: T::c(0.5) * accel * ramp * ramp,
+        }
     }
 
     /// Total duration [s].
@@ -128,12 +140,8 @@ impl<T: Real> Profile<T> {
             (z, z, z)
         } else if t < self.ramp {
             (half * self.accel * t * t, self.accel * t, self.accel)
-        } else if t < self.duration - self.ramp {
-            (
-                half * self.accel * self.ramp * self.ramp + self.rate * (t - self.ramp),
-                self.rate,
-                z,
-            )
+        } else if t < self.cruise_end {
+            (self.s_ramp + self.rate * (t - self.ramp), self.rate, z)
         } else if t < self.duration {
             let r = self.duration - t;
             (
@@ -165,13 +173,8 @@ impl<T: Real> Trapezoid<T> {
         Self {
             start: Vector2::zeros(),
             amplitude: Vector2::new(half_pi, half_pi),
-            // Constants that satisfy the constructor's checks; Profile::new cannot fail here.
-            profile: Profile::new(T::c(2.0), T::c(0.5)).unwrap_or(Profile {
-                duration: T::c(2.0),
-                ramp: T::c(0.5),
-                rate: T::c(1.0 / 1.5),
-                accel: T::c(1.0 / 0.75),
-            }),
+            // 0 < 0.5 ≤ 2/2: timings that `Profile::new` accepts.
+            profile: Profile::from_timing(T::c(2.0), T::c(0.5)),
         }
     }
 
