@@ -3,32 +3,40 @@
 //! The Cortex-M4F's FPU is single precision only, and `libm`'s `sincosf` reduces its argument
 //! in `f64`, which is software arithmetic there. [`sin_cos`] reduces in `f32` with a three-part
 //! Cody–Waite split of π/2 (the products `k·P1` and `k·P2` are exact for `|k| < 2¹⁵`), then
-//! evaluates the Taylor polynomials of degree 9 (sin) and 10 (cos) on `|r| ≤ π/4`, whose
-//! truncation errors (`(π/4)¹¹/11! = 1.8e-9`, `(π/4)¹²/12! = 1.1e-10`) sit far below `f32`
-//! rounding.
+//! evaluates minimax polynomials on `|r| ≤ π/4`: degree 7 for `sin` (relative approximation
+//! error 3.6e-9) and degree 8 for `cos` with the exact `1 − r²/2` (absolute error 9.5e-11).
+//! Both sit far below `f32` rounding (an ulp of 1.0 is 1.2e-7).
 //!
 //! Error bound, checked by `core/tests/fastmath.rs` against `f64` `libm` over a dense grid:
-//! at most 1.5e-7 absolute for `|x| ≤ 100 rad` (measured: 8.3e-8, about one ulp of 1.0). Beyond
-//! `|x| > 10⁴ rad` (no joint gets there: the supervisor trips at ±π) the argument is first
-//! folded by whole turns in `f32`, which costs accuracy in proportion to `|x|`.
+//! at most 1.5e-7 absolute for `|x| ≤ 100 rad` (about one ulp of 1.0). Beyond `|x| > 10⁴ rad`
+//! (no joint gets there: the supervisor trips at ±π) the argument is first folded by whole
+//! turns in `f32`, which costs accuracy in proportion to `|x|`.
 //!
 //! [`exp`] splits `x = k ln 2 + r` (two-part `ln 2`, `k·LN2_HI` exact for `|k| < 2⁸`), evaluates
-//! the Taylor polynomial of degree 7 on `|r| ≤ ln 2 / 2` (truncation `(ln 2/2)⁸/8!·√2 = 7e-9`
-//! relative) and scales by `2ᵏ` through the exponent bits. Checked against `f64` `libm`: at most
-//! 3e-7 relative over `[−87, 88]`. Results below the smallest normal float (`x < −87`) are
-//! flushed to 0, and `x > 88` gives `+∞` (the true value there is within a factor 2 of
-//! `f32::MAX`).
+//! a minimax polynomial of degree 5 with `p(0) = 1` on `|r| ≤ ln 2 / 2` (relative
+//! approximation error 9.1e-8) and scales by `2ᵏ` through the exponent bits. Checked against
+//! `f64` `libm`: at most 3e-7 relative over `[−87, 88]`. Results below the smallest normal float
+//! (`x < −87`) are flushed to 0, and `x > 88` gives `+∞` (the true value there is within a
+//! factor 2 of `f32::MAX`).
 //!
-//! Rounding to the nearest integer uses the `1.5·2²³` shift (`(y + S) − S` is `y` rounded to
-//! nearest even for `|y| < 2²²`): two additions instead of a call to `rintf`.
+//! The coefficients and their approximation errors come from `scripts/minimax.py` (Remez
+//! exchange in 40-digit arithmetic, weighted for the relative error of `sin` and `exp` and the
+//! absolute error of `cos`).
+//!
+//! Rounding to the nearest integer uses the `1.5·2²³` shift: for `|y| < 2²²`, `y + S` is
+//! `S + round(y)` exactly, so `(y + S) − S` is `y` rounded to nearest even and the low bits of
+//! `y + S` hold `round(y)` in two's complement (offset by `2²²`). Two additions and a move
+//! instead of a call to `rintf` and a conversion.
 
-/// `1.5·2²³`: adding and subtracting it rounds an `f32` below `2²²` in magnitude to the nearest
-/// integer.
+/// `1.5·2²³`: adding it to an `f32` below `2²²` in magnitude rounds it to the nearest integer.
 const ROUND_SHIFT: f32 = 12_582_912.0;
 
-/// `y` rounded to the nearest integer, for `|y| < 2²²`.
-fn round_small(y: f32) -> f32 {
-    (y + ROUND_SHIFT) - ROUND_SHIFT
+/// `(y + S, round(y))` for `|y| < 2²²`: the shifted value, whose low bits hold `round(y)`
+/// (offset by `2²²`), and the rounded value.
+#[inline(always)]
+fn round_small(y: f32) -> (f32, f32) {
+    let shifted = y + ROUND_SHIFT;
+    (shifted, shifted - ROUND_SHIFT)
 }
 
 /// `(sin x, cos x)` for `f32`, float-only for `|x| ≤ 10⁴`. Inlined: the hot path is about 30
@@ -70,19 +78,20 @@ fn sin_cos_reduced(x: f32) -> (f32, f32) {
     const P1: f32 = 1.570_312_5;
     const P2: f32 = 4.837_513e-4;
     const P3: f32 = 7.549_79e-8;
-    let k = round_small(x * TWO_OVER_PI);
+    // Minimax coefficients (`scripts/minimax.py`).
+    const S3: f32 = -0.16666655;
+    const S5: f32 = 0.008332178;
+    const S7: f32 = -0.000195173;
+    const C4: f32 = 0.041666646;
+    const C6: f32 = -0.0013887368;
+    const C8: f32 = 2.4438452e-5;
+    let (shifted, k) = round_small(x * TWO_OVER_PI);
     let r = ((x - k * P1) - k * P2) - k * P3;
     let r2 = r * r;
-    let s = r
-        * (1.0
-            + r2 * (-1.0 / 6.0
-                + r2 * (1.0 / 120.0 + r2 * (-1.0 / 5040.0 + r2 * (1.0 / 362_880.0)))));
-    let c = 1.0
-        + r2 * (-0.5
-            + r2 * (1.0 / 24.0
-                + r2 * (-1.0 / 720.0 + r2 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0)))));
-    // Quadrant from k mod 4 (k is an exact integer below 2^14 here).
-    match (k as i32) & 3 {
+    let s = r + r * r2 * (S3 + r2 * (S5 + r2 * S7));
+    let c = 1.0 + r2 * (-0.5 + r2 * (C4 + r2 * (C6 + r2 * C8)));
+    // Quadrant: k mod 4, from the low bits of the shifted value (2²² ≡ 0 mod 4).
+    match shifted.to_bits() & 3 {
         0 => (s, c),
         1 => (c, -s),
         2 => (-s, -c),
@@ -107,15 +116,20 @@ pub fn exp(x: f32) -> f32 {
     // ln 2 = LN2_HI + LN2_LO; LN2_HI has 16 significant bits, so k·LN2_HI is exact.
     const LN2_HI: f32 = 0.693_145_75; // = 45425 / 2¹⁶
     const LN2_LO: f32 = 1.428_606_8e-6;
-    let k = round_small(x * LOG2_E);
+    // Minimax coefficients (`scripts/minimax.py`).
+    const E1: f32 = 0.9999997;
+    const E2: f32 = 0.4999915;
+    const E3: f32 = 0.16667636;
+    const E4: f32 = 0.04189793;
+    const E5: f32 = 0.008290315;
+    let (shifted, k) = round_small(x * LOG2_E);
     let r = (x - k * LN2_HI) - k * LN2_LO;
-    let p = 1.0
-        + r * (1.0
-            + r * (1.0 / 2.0
-                + r * (1.0 / 6.0
-                    + r * (1.0 / 24.0
-                        + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r * (1.0 / 5040.0)))))));
-    // 2ᵏ from its exponent bits; −126 ≤ k ≤ 127 in this range, a normal float.
-    let two_k = f32::from_bits(((k as i32 + 127) as u32) << 23);
-    two_k * p
+    let p = 1.0 + r * (E1 + r * (E2 + r * (E3 + r * (E4 + r * E5))));
+    // 2ᵏ from its exponent bits, k + 127 = bits(y + S) − bits(S) + 127; −126 ≤ k ≤ 127 in
+    // this range, a normal float.
+    let biased = shifted
+        .to_bits()
+        .wrapping_sub(ROUND_SHIFT.to_bits())
+        .wrapping_add(127);
+    f32::from_bits(biased << 23) * p
 }
