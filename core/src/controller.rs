@@ -8,8 +8,8 @@
 //! - [`Controller::piezo_step`] (piezo loop): `V_a = sat(−k_c V̇_f)` (Eq. 17) with the film
 //!   voltage checked.
 //!
-//! Every output passes the [`SafetyLatch`]: after any fault both loops command the safe state
-//! (zero torque, zero voltage, amplifiers disabled) until [`Controller::reset`].
+//! Both loops read the [`SafetyLatch`]: after any fault they command the safe state (zero
+//! torque, zero voltage, amplifiers disabled) until [`Controller::reset`].
 
 use crate::control::motor::{MotorController, MotorLaw, MotorOutput};
 use crate::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
@@ -60,7 +60,8 @@ pub struct Controller<T> {
     pub motor_period: T,
     latch: SafetyLatch,
     staleness: Staleness,
-    previous: Option<Measurement<T>>,
+    /// Encoder angles of the previous sample [rad].
+    previous: Option<Vector2<T>>,
     v_a: T,
 }
 
@@ -223,12 +224,18 @@ impl<T: Real> Controller<T> {
         self.report(law)
     }
 
+    /// The step's command: the law's torques when it ran; the safe state otherwise (every path
+    /// of [`Self::run_motor`] that returns `None` has latched a fault).
     fn report(&self, law: Option<MotorOutput<T>>) -> MotorReport<T> {
-        let tau = law.map_or(Vector2::zeros(), |l| l.tau);
-        MotorReport {
-            command: self.latch.gate(tau, self.v_a),
-            law,
-        }
+        let command = match law {
+            Some(l) => Command {
+                tau: l.tau,
+                v_a: self.v_a,
+                enable: true,
+            },
+            None => Command::safe(),
+        };
+        MotorReport { command, law }
     }
 
     fn run_motor(
@@ -255,7 +262,7 @@ impl<T: Real> Controller<T> {
             self.latch.check(checked)?;
             // The range check has rejected NaN and ±∞.
             self.observer.correct_finite(y);
-            self.previous = Some(*y);
+            self.previous = Some(y.theta);
         }
         let (q_hat, qd_hat) = self.observer.state();
         // One set of B(q) terms serves the law and the observer's prediction when the law runs

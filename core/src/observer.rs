@@ -43,7 +43,8 @@ pub struct Measurement<T> {
 pub struct Observer<T> {
     q: Vector4<T>,
     qd: Vector4<T>,
-    gain: Gain<T>,
+    /// `Lᵀ`: each state's three gains side by side in memory.
+    gain_t: SMatrix<T, 3, 8>,
     /// `c_f = k_s Δφ'` [V per √kg·m]: `V_f = c_fᵀ δ`.
     c_f: Vector2<T>,
     period: T,
@@ -57,7 +58,7 @@ impl<T: Real> Observer<T> {
         Self {
             q: Vector4::new(theta.x, theta.y, z, z),
             qd: Vector4::zeros(),
-            gain,
+            gain_t: gain.transpose(),
             c_f,
             period,
         }
@@ -70,7 +71,7 @@ impl<T: Real> Observer<T> {
     pub fn is_finite(&self) -> bool {
         let (q, qd) = (&self.q, &self.qd);
         all_finite([q.x, q.y, q.z, q.w, qd.x, qd.y, qd.z, qd.w])
-            && self.gain.iter().all(|g| g.finite())
+            && self.gain_t.iter().all(|g| g.finite())
             && all_finite([self.c_f.x, self.c_f.y, self.period])
     }
 
@@ -103,9 +104,9 @@ impl<T: Real> Observer<T> {
     #[inline(always)]
     pub fn correct_finite(&mut self, y: &Measurement<T>) {
         let r = self.residual(y);
-        let l = &self.gain;
+        let l = &self.gain_t;
         // x̂ += L r, row by row (no temporary 8-vector).
-        let row = |i: usize| l[(i, 0)] * r.x + l[(i, 1)] * r.y + l[(i, 2)] * r.z;
+        let row = |i: usize| l[(0, i)] * r.x + l[(1, i)] * r.y + l[(2, i)] * r.z;
         self.q += Vector4::new(row(0), row(1), row(2), row(3));
         self.qd += Vector4::new(row(4), row(5), row(6), row(7));
     }
@@ -141,7 +142,7 @@ impl<T: Real> Observer<T> {
 
     /// Restarts at rest at `theta` [rad] (after a fault reset).
     pub fn reset(&mut self, theta: Vector2<T>) {
-        *self = Self::new(self.gain, self.c_f, self.period, theta);
+        *self = Self::new(self.gain_t.transpose(), self.c_f, self.period, theta);
     }
 }
 

@@ -1,6 +1,6 @@
 //! Plausibility checks of the measurements and the latch that holds the safe state.
 //!
-//! Every check that fails trips the [`SafetyLatch`]; from then on [`SafetyLatch::gate`] returns
+//! Every check that fails trips the [`SafetyLatch`]; from then on the controller commands
 //! [`Command::safe`] (zero torque, zero piezo voltage, amplifiers disabled) whatever the laws
 //! compute, until an explicit [`SafetyLatch::reset`]. The first fault is kept: later ones do not
 //! overwrite the cause.
@@ -61,12 +61,12 @@ impl<T: Real> Default for SensorLimits<T> {
 }
 
 impl<T: Real> SensorLimits<T> {
-    /// Checks one sample against the ranges and, given the previous sample taken `period` [s]
-    /// earlier, against encoder jumps.
+    /// Checks one sample against the ranges and, given the encoder angles of the previous
+    /// sample taken `period` [s] earlier, against encoder jumps.
     pub fn check(
         &self,
         y: &Measurement<T>,
-        previous: Option<&Measurement<T>>,
+        previous: Option<&Vector2<T>>,
         period: T,
     ) -> Result<(), Fault> {
         // Written so that NaN fails every comparison: the range test rejects NaN, ±∞ and
@@ -87,7 +87,7 @@ impl<T: Real> SensorLimits<T> {
         }
         if let Some(p) = previous {
             let step = self.speed_max * period;
-            if (y.theta.x - p.theta.x).abs() > step || (y.theta.y - p.theta.y).abs() > step {
+            if (y.theta.x - p.x).abs() > step || (y.theta.y - p.y).abs() > step {
                 return Err(Fault::EncoderJump);
             }
         }
@@ -120,19 +120,6 @@ impl SafetyLatch {
     /// Clears the latch (an explicit operator action).
     pub fn reset(&mut self) {
         self.fault = None;
-    }
-
-    /// Passes `cmd` (enabled) while no fault is latched; [`Command::safe`] otherwise.
-    pub fn gate<T: Real>(&self, tau: Vector2<T>, v_a: T) -> Command<T> {
-        if self.fault.is_some() {
-            Command::safe()
-        } else {
-            Command {
-                tau,
-                v_a,
-                enable: true,
-            }
-        }
     }
 
     /// Trips on `Err` and returns the value on `Ok`.

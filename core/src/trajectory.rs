@@ -136,7 +136,9 @@ impl<T: Real> Profile<T> {
     pub fn sample(&self, t: T) -> (T, T, T) {
         let half = T::c(0.5);
         let z = T::zero();
-        if t.is_nan_() || t <= z {
+        // One comparison for NaN and t ≤ 0.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
+        if !(t > z) {
             (z, z, z)
         } else if t < self.ramp {
             (half * self.accel * t * t, self.accel * t, self.accel)

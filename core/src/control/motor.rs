@@ -28,8 +28,6 @@ pub struct MotorOutput<T> {
     pub tau: Vector2<T>,
     /// Joint tracking error `θ − θ_d` [rad].
     pub error: Vector2<T>,
-    /// `true` if a torque hit its limit this step.
-    pub saturated: bool,
 }
 
 /// The motor controller: model, gains and limits, no other state.
@@ -88,12 +86,9 @@ impl<T: Real> MotorController<T> {
         if !all_finite([tau.x, tau.y]) {
             return Err(Fault::Singular);
         }
-        let lim = &self.limits.tau_max;
         Ok(MotorOutput {
-            tau: saturate2(&tau, lim),
+            tau: saturate2(&tau, &self.limits.tau_max),
             error: Vector2::new(r.q_tilde.x, r.q_tilde.y),
-            // The comparisons of `saturate`'s own fast path (τ is finite here).
-            saturated: !(tau.x.abs() <= lim.x && tau.y.abs() <= lim.y),
         })
     }
 }
