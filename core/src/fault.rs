@@ -4,10 +4,13 @@
 //! disabled. The controller latches the first fault until an explicit reset.
 
 /// Why the controller went to the safe state.
+///
+/// The codes start at 1 so that "no fault" (`Option::<Fault>::None`) is the zero byte: the
+/// loops' test of the latch is one load and one compare-with-zero branch.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Fault {
     /// A measurement was NaN or infinite.
-    NonFinite,
+    NonFinite = 1,
     /// A measurement was outside its physical range.
     OutOfRange,
     /// No new sample arrived in time.

@@ -202,3 +202,20 @@ fn rate_filter_first_sample_gives_no_spike_and_nan_resets() {
         "restarted filter: no spike after a NaN"
     );
 }
+
+/// The first sample after construction or a reset gives 0 V (no spike), however far it is from
+/// the previous one, and the law then runs exactly as a new one fed the same samples.
+#[test]
+fn piezo_law_restarts_without_a_spike() {
+    let samples = [9.0f32, 8.99, 8.95, 9.2, -3.0, -3.01];
+    let run = |law: &mut PiezoLaw<f32>| samples.map(|v| law.step_finite(v));
+    let fresh = run(&mut PiezoLaw::new(&PiezoGains::default(), 1e-4, 200.0));
+    assert_eq!(fresh[0], 0.0);
+    assert!(fresh[1] > 0.0 && fresh[1] < 200.0, "{fresh:?}");
+    assert_eq!(fresh[3], -200.0, "a fast rise saturates: {fresh:?}");
+    let mut law = PiezoLaw::new(&PiezoGains::default(), 1e-4, 200.0);
+    law.step_finite(-9.0);
+    law.step_finite(5.0);
+    law.reset();
+    assert_eq!(run(&mut law), fresh);
+}

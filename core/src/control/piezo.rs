@@ -24,7 +24,6 @@
 //!   area whose mid-plane lies `z_f = (t_b + t_f)/2` from the beam's neutral axis: charge
 //!   `e31 b z_f Δw'` over capacitance `C b l_a`, with `e31/C = g31 E_f t_f`.
 
-use crate::limits::saturate;
 use crate::modes::UniformMode;
 use crate::real::Real;
 use crate::{Vector2, Vector4};
@@ -180,13 +179,26 @@ impl<T: Real> PiezoPatch<T> {
 /// transform at period `T`:
 /// `y_k = a y_{k−1} + b (x_k − x_{k−1})`, `a = (2 − ω_c T)/(2 + ω_c T)`, `b = 2 ω_c/(2 + ω_c T)`.
 /// The first sample only initializes `x_{k−1}` (output 0), so switching on gives no spike.
-#[derive(Clone, Copy, Debug, PartialEq)]
+///
+/// "No previous sample" is marked by `x_{k−1} = NaN` rather than by a flag: the first
+/// difference is then NaN, which the hot path of [`PiezoLaw`] sends to its (rare) saturation
+/// branch, where it restarts the output at 0. No test of a flag on the common path.
+#[derive(Clone, Copy, Debug)]
 pub struct RateFilter<T> {
     a: T,
     b: T,
     x_prev: T,
     y: T,
-    primed: bool,
+}
+
+impl<T: PartialEq> PartialEq for RateFilter<T> {
+    /// Equal coefficients and state; two filters without a previous sample are equal.
+    fn eq(&self, o: &Self) -> bool {
+        #[allow(clippy::eq_op)] // `x != x`: NaN, the "no previous sample" mark
+        let unset = |x: &T| x != x;
+        let same_prev = self.x_prev == o.x_prev || (unset(&self.x_prev) && unset(&o.x_prev));
+        self.a == o.a && self.b == o.b && self.y == o.y && same_prev
+    }
 }
 
 impl<T: Real> RateFilter<T> {
@@ -200,31 +212,37 @@ impl<T: Real> RateFilter<T> {
     pub fn with_gain(cutoff_hz: T, period: T, gain: T) -> Self {
         let wc = T::c(core::f64::consts::TAU) * cutoff_hz;
         let den = T::c(2.0) + wc * period;
-        Self {
+        let mut f = Self {
             a: (T::c(2.0) - wc * period) / den,
             b: gain * T::c(2.0) * wc / den,
             x_prev: T::zero(),
             y: T::zero(),
-            primed: false,
-        }
+        };
+        f.reset();
+        f
     }
 
-    /// Feeds the sample `x` and returns the filtered rate [units of x per s].
+    /// Feeds the sample `x` and returns the filtered rate [units of x per s]; 0 for the first
+    /// sample after a reset. A NaN sample restarts the filter.
     pub fn update(&mut self, x: T) -> T {
-        if self.primed {
-            self.y = self.a * self.y + self.b * (x - self.x_prev);
-        } else {
-            self.primed = true;
+        if self.advance(x).is_nan_() {
+            self.y = T::zero();
         }
+        self.y
+    }
+
+    /// One step of the recursion: NaN for the first sample after a reset (see the type's docs).
+    #[inline(always)]
+    fn advance(&mut self, x: T) -> T {
+        self.y = self.a * self.y + self.b * (x - self.x_prev);
         self.x_prev = x;
         self.y
     }
 
-    /// Forgets the history (after a fault or a reset).
+    /// Forgets the history (after a fault or a reset): the next sample gives 0.
     pub fn reset(&mut self) {
-        self.x_prev = T::zero();
+        self.x_prev = T::c(f64::NAN);
         self.y = T::zero();
-        self.primed = false;
     }
 }
 
@@ -278,8 +296,21 @@ impl<T: Real> PiezoLaw<T> {
 
     /// [`Self::step`] for a sample the caller has already checked to be finite and bounded
     /// (the filter is stable, so its output is finite too).
+    #[inline(always)]
     pub fn step_finite(&mut self, v_f: T) -> T {
-        saturate(self.filter.update(v_f), self.v_max)
+        let v = self.filter.advance(v_f);
+        // One comparison on the common path, as in `saturate`.
+        if v.abs() <= self.v_max {
+            v
+        } else if v > T::zero() {
+            self.v_max
+        } else if v < T::zero() {
+            -self.v_max
+        } else {
+            // NaN: the first sample after a reset. The filter restarts from it with output 0.
+            self.filter.y = T::zero();
+            T::zero()
+        }
     }
 
     /// Forgets the filter's history.
