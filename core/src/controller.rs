@@ -274,8 +274,9 @@ impl<T: Real> Controller<T> {
             None => self.motor.law_with(&terms_hat, t, &q_hat, &qd_hat, &target),
         };
         let out = self.latch.check(out)?;
-        let u = Vector4::new(out.tau.x, out.tau.y, T::zero(), T::zero())
-            + self.patch.generalized_force(self.v_a);
+        // u = [τ, C_a V_a] (Eq. 18), written out: IEEE arithmetic cannot drop the `+ 0`s.
+        let f = self.patch.c_a() * self.v_a;
+        let u = Vector4::new(out.tau.x, out.tau.y, f.x, f.y);
         self.latch.check(
             self.observer
                 .predict_with(&self.motor.model, &terms_hat, &u),

@@ -321,12 +321,14 @@ pub struct Terms<T> {
 fn schur_inverse<T: Real>(s11: T, s12: T, s22: T) -> Option<Matrix2<T>> {
     let det = s11 * s22 - s12 * s12;
     let inv = T::one() / det;
-    // `det > 0` rejects NaN; `1/det > 0` rejects `det = +∞`.
-    if !(s11 > T::zero() && det > T::zero() && inv > T::zero()) {
+    let m22 = s11 * inv;
+    // `det > 0` rejects NaN and det ≤ 0. Then `s11/det > 0` holds exactly when `s11 > 0` and
+    // `det < +∞` (where `1/det = 0`): with `det > 0`, the test for positive definiteness.
+    if !(det > T::zero() && m22 > T::zero()) {
         return None;
     }
     let off = -s12 * inv;
-    Some(Matrix2::new(s22 * inv, off, off, s11 * inv))
+    Some(Matrix2::new(s22 * inv, off, off, m22))
 }
 
 impl<T: Real> Terms<T> {
