@@ -35,10 +35,13 @@ pub trait Real: RealField + Copy {
 
 impl Real for f32 {
     /// Float-only ([`crate::fastmath::sin_cos`]): no software `f64` on the Cortex-M4F.
+    /// Inlined, as the function itself.
+    #[inline(always)]
     fn lsin_cos(self) -> (Self, Self) {
         crate::fastmath::sin_cos(self)
     }
     /// Float-only ([`crate::fastmath::exp`]), like `lsin_cos`.
+    #[inline(always)]
     fn lexp(self) -> Self {
         crate::fastmath::exp(self)
     }
