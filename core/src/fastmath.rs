@@ -39,9 +39,7 @@ fn round_small(y: f32) -> (f32, f32) {
     (shifted, shifted - ROUND_SHIFT)
 }
 
-/// `(sin x, cos x)` for `f32`, float-only for `|x| ≤ 10⁴`. Inlined: the hot path is about 30
-/// instructions, and a call would add a fifth to it.
-#[inline(always)]
+/// `(sin x, cos x)` for `f32`, float-only for `|x| ≤ 10⁴`.
 pub fn sin_cos(x: f32) -> (f32, f32) {
     // One comparison sends NaN, ±∞ and |x| > 10⁴ to the slow path.
     #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch

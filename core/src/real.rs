@@ -35,8 +35,6 @@ pub trait Real: RealField + Copy {
 
 impl Real for f32 {
     /// Float-only ([`crate::fastmath::sin_cos`]): no software `f64` on the Cortex-M4F.
-    /// Inlined, as the function itself.
-    #[inline(always)]
     fn lsin_cos(self) -> (Self, Self) {
         crate::fastmath::sin_cos(self)
     }
