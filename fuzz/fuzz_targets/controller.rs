@@ -3,14 +3,11 @@
 #![no_main]
 
 use flexarm_core::Vector2;
-use flexarm_core::control::motor::{MotorController, MotorLaw};
-use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+use flexarm_core::control::motor::MotorLaw;
 use flexarm_core::controller::Controller;
-use flexarm_core::model::Model;
-use flexarm_core::observer::{Measurement, Observer, film_map};
+use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
-use flexarm_core::params::{ArmParams, Gains, Limits};
-use flexarm_core::supervisor::SensorLimits;
+use flexarm_core::params::Limits;
 use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
 use libfuzzer_sys::fuzz_target;
 
