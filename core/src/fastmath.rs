@@ -97,7 +97,8 @@ fn sin_cos_reduced(x: f32) -> (f32, f32) {
     }
 }
 
-/// `eˣ` for `f32`, float-only (module docs: error bound, range). Inlined, as [`sin_cos`].
+/// `eˣ` for `f32`, float-only (module docs: error bound, range). Inlined into its one caller on
+/// the hot path, the robust term's boundary layer.
 #[inline(always)]
 pub fn exp(x: f32) -> f32 {
     // One comparison sends NaN and the underflow and overflow ranges to the slow path.

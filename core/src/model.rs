@@ -18,12 +18,13 @@
 //! `Y_ij = Σ_k ∂b_ik/∂q_j q̇_k`, so `Ḃ − 2C = Yᵀ − Y` is skew-symmetric by construction.
 //!
 //! ## Closed forms of `C` on the hot path
-//! Only `θ2` and `δ` enter `B`, and `∂h/∂δ_k = ∂b1,2+k/∂θ2 = −a1 v_k sin θ2 =: e_k`. The
-//! derivative of `B` along any vector `x`, `Σ_k ∂B/∂q_k x_k`, is therefore the joint block
-//! `[[J_x + 2H_x, J_x + H_x], [J_x + H_x, J_x]]` plus `e_k x1` in the entries `(1, 2+k)` and
-//! `(2+k, 1)`, with `J_x = 2δᵀx_δ` and `H_x = ∂h/∂θ2 · x1 + eᵀx_δ`. Put into the Christoffel
-//! sums, most products cancel; with `σ = q̇0 + q̇1`, `j = δᵀq̇_δ`, `a = j + eᵀq̇_δ` and the same
-//! `(σ_v, j_v, a_v)` of a vector `v` (indices from 0):
+//! Indices from 0 here: `x = (x0, x1, x2, x3)` along `(θ1, θ2, δ1, δ2)`. Only `θ2` and `δ`
+//! enter `B`, and `∂h/∂δ_k = ∂b1,2+k/∂θ2 = −a1 v_k sin θ2 =: e_k`. The derivative of `B` along
+//! any vector `x`, `Σ_k ∂B/∂q_k x_k`, is therefore the joint block
+//! `[[J_x + 2H_x, J_x + H_x], [J_x + H_x, J_x]]` plus `e_k x1` in the entries `(0, 2+k)` and
+//! `(2+k, 0)` (the `b1,2+k` above), with `J_x = 2δᵀx_δ` and `H_x = ∂h/∂θ2 · x1 + eᵀx_δ`. Put
+//! into the Christoffel sums, most products cancel; with `σ = q̇0 + q̇1`, `j = δᵀq̇_δ`,
+//! `a = j + eᵀq̇_δ` and the same `(σ_v, j_v, a_v)` of a vector `v`:
 //!
 //! - `(C v)_0 = a σ_v + a_v σ + ∂h/∂θ2 · (q̇1 σ_v + q̇0 v1)`,
 //! - `(C v)_1 = j σ_v + j_v σ − ∂h/∂θ2 · q̇0 v0`,
