@@ -84,6 +84,7 @@ impl<T: Real> Controller<T> {
             && motor.gains.validate().is_ok()
             && motor.limits.validate().is_ok()
             && patch.validate(motor.model.params.a2).is_ok()
+            && piezo.is_valid()
             && observer.is_finite()
             && motor_period.finite()
             && motor_period > T::zero();
@@ -144,7 +145,7 @@ impl<T: Real> Controller<T> {
     ) -> Self {
         let limits = Limits::default();
         let theta0 = trajectory.sample(T::zero()).q;
-        let mut ctrl = Self::new(
+        Self::new(
             MotorController {
                 model: Model::new(ArmParams::default()),
                 gains: Gains::default(),
@@ -158,12 +159,7 @@ impl<T: Real> Controller<T> {
             trajectory,
             motor_period,
             3,
-        );
-        let positive = |v: T| v.finite() && v > T::zero();
-        if !(positive(piezo_gains.k_c) && positive(piezo_gains.cutoff_hz)) {
-            ctrl.trip(Fault::InvalidConfig);
-        }
-        ctrl
+        )
     }
 
     /// The observer's estimate `(q, q̇)` after the last motor step.

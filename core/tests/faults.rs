@@ -15,23 +15,46 @@ use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
 use flexarm_core::{Fault, Vector2};
 use proptest::prelude::*;
 
-fn controller_with(arm: ArmParams<f32>) -> Controller<f32> {
-    let limits = Limits::default();
-    let patch = PiezoPatch::<f32>::paper();
+/// `Controller::new` with the given arm, piezo law, patch and observer; the rest as the
+/// firmware has it.
+fn assemble(
+    arm: ArmParams<f32>,
+    piezo: PiezoLaw<f32>,
+    patch: PiezoPatch<f32>,
+    observer: Observer<f32>,
+) -> Controller<f32> {
     Controller::new(
         MotorController {
             model: Model::new(arm),
             gains: Gains::default(),
-            limits,
+            limits: Limits::default(),
             law: MotorLaw::Robust,
         },
-        PiezoLaw::new(&PiezoGains::default(), 1e-4, limits.v_a_max),
+        piezo,
         patch,
-        Observer::new(gain(&GAIN_1KHZ), film_map(&patch), 1e-3, Vector2::zeros()),
+        observer,
         SensorLimits::default(),
         JointTrajectory::Trapezoid(Trapezoid::paper()),
         1e-3,
         3,
+    )
+}
+
+fn piezo_law(gains: &PiezoGains<f32>) -> PiezoLaw<f32> {
+    PiezoLaw::new(gains, 1e-4, Limits::<f32>::default().v_a_max)
+}
+
+fn observer(patch: &PiezoPatch<f32>) -> Observer<f32> {
+    Observer::new(gain(&GAIN_1KHZ), film_map(patch), 1e-3, Vector2::zeros())
+}
+
+fn controller_with(arm: ArmParams<f32>) -> Controller<f32> {
+    let patch = PiezoPatch::paper();
+    assemble(
+        arm,
+        piezo_law(&PiezoGains::default()),
+        patch,
+        observer(&patch),
     )
 }
 
@@ -189,27 +212,47 @@ fn reset_at_non_finite_angles() {
 
 #[test]
 fn non_finite_observer_is_an_invalid_configuration() {
-    let arm = ArmParams::<f32>::default();
-    let limits = Limits::default();
-    let patch = PiezoPatch::<f32>::paper();
+    let patch = PiezoPatch::paper();
     let mut l = gain(&GAIN_1KHZ);
     l[(5, 2)] = f32::NAN;
-    let c = Controller::new(
-        MotorController {
-            model: Model::new(arm),
-            gains: Gains::default(),
-            limits,
-            law: MotorLaw::Tracking,
-        },
-        PiezoLaw::new(&PiezoGains::default(), 1e-4, limits.v_a_max),
+    let obs = Observer::new(l, film_map(&patch), 1e-3, Vector2::zeros());
+    let c = assemble(
+        ArmParams::default(),
+        piezo_law(&PiezoGains::default()),
         patch,
-        Observer::new(l, film_map(&patch), 1e-3, Vector2::zeros()),
-        SensorLimits::default(),
-        JointTrajectory::Hold(Vector2::zeros()),
-        1e-3,
-        3,
+        obs,
     );
     assert_eq!(c.fault(), Some(Fault::InvalidConfig));
+}
+
+/// A piezo law that does not damp (`k_c ≤ 0`, a corner that is not positive, NaN) is refused by
+/// `Controller::new` itself, whatever built it.
+#[test]
+fn piezo_law_that_does_not_damp_is_an_invalid_configuration() {
+    let patch = PiezoPatch::paper();
+    let ok = assemble(
+        ArmParams::default(),
+        piezo_law(&PiezoGains::default()),
+        patch,
+        observer(&patch),
+    );
+    assert_eq!(ok.fault(), None);
+    for (k_c, cutoff_hz) in [
+        (-30.0, 100.0),
+        (0.0, 100.0),
+        (30.0, 0.0),
+        (30.0, -100.0),
+        (f32::NAN, 100.0),
+        (30.0, f32::INFINITY),
+    ] {
+        let g = PiezoGains { k_c, cutoff_hz };
+        let c = assemble(ArmParams::default(), piezo_law(&g), patch, observer(&patch));
+        assert_eq!(
+            c.fault(),
+            Some(Fault::InvalidConfig),
+            "k_c {k_c}, corner {cutoff_hz}"
+        );
+    }
 }
 
 #[test]
@@ -262,21 +305,11 @@ fn patch_off_the_link_is_an_invalid_configuration() {
         Err(flexarm_core::ParamError::PatchOutsideLink)
     );
     assert_eq!(PiezoPatch::<f32>::paper().validate(0.7), Ok(()));
-    let limits = Limits::default();
-    let c = Controller::new(
-        MotorController {
-            model: Model::new(ArmParams::default()),
-            gains: Gains::default(),
-            limits,
-            law: MotorLaw::Tracking,
-        },
-        PiezoLaw::new(&PiezoGains::default(), 1e-4, limits.v_a_max),
+    let c = assemble(
+        ArmParams::default(),
+        piezo_law(&PiezoGains::default()),
         patch,
-        Observer::new(gain(&GAIN_1KHZ), film_map(&patch), 1e-3, Vector2::zeros()),
-        SensorLimits::default(),
-        JointTrajectory::Hold(Vector2::zeros()),
-        1e-3,
-        3,
+        observer(&patch),
     );
     assert_eq!(c.fault(), Some(Fault::InvalidConfig));
 }

@@ -317,14 +317,16 @@ mod app {
             .shared
             .board
             .lock(|b| (b.encoders(), b.film_voltage(), b.amplifier_fault()));
-        let (report, fault, (q, _)) = cx.shared.ctrl.lock(|c| {
+        // The estimate is read only for the telemetry samples.
+        let sample = k.is_multiple_of(config::TELEMETRY_EVERY);
+        let (report, fault, q_hat) = cx.shared.ctrl.lock(|c| {
             if amp_fault {
                 c.trip(Fault::Amplifier);
             }
             (
                 c.motor_step(t, Some(&Measurement { theta, v_f })),
                 c.fault(),
-                c.estimate(),
+                sample.then(|| c.estimate().0),
             )
         });
         let cmd = report.command;
@@ -345,7 +347,7 @@ mod app {
             *cx.local.fault_sent = true;
             push(Record::Fault { t, fault });
         }
-        if k.is_multiple_of(config::TELEMETRY_EVERY) {
+        if let Some(q) = q_hat {
             let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);
             push(Record::Sample {
                 t,

@@ -101,13 +101,7 @@ pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
     let k_c = choice.controller_k_c();
     // The firmware validates the patch in f32 (Controller::new); refuse here what it would
     // latch as an invalid configuration at boot.
-    let p32 = PiezoPatch {
-        x_a: patch.x_a as f32,
-        l_a: patch.l_a as f32,
-        slope_diff: patch.slope_diff.cast::<f32>(),
-        k_a: patch.k_a as f32,
-        k_s: patch.k_s as f32,
-    };
+    let p32 = patch.to_f32();
     // (name, value in f32, must stay > 0 once rounded)
     let values = [
         ("x_a", p32.x_a, false),

@@ -360,13 +360,7 @@ fn build(
             piezo: cfg.piezo.map(piezo_law),
         },
         StateSource::Observer => {
-            let patch32 = PiezoPatch {
-                x_a: cfg.patch.x_a as f32,
-                l_a: cfg.patch.l_a as f32,
-                slope_diff: cfg.patch.slope_diff.cast::<f32>(),
-                k_a: cfg.patch.k_a as f32,
-                k_s: cfg.patch.k_s as f32,
-            };
+            let patch32 = cfg.patch.to_f32();
             let th0 = traj.sample(0.0).q;
             let c_f = film_map(&cfg.patch);
             let gain = design(

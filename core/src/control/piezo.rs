@@ -175,6 +175,19 @@ impl<T: Real> PiezoPatch<T> {
     }
 }
 
+impl PiezoPatch<f64> {
+    /// The patch rounded to `f32`, as the controller runs it.
+    pub fn to_f32(&self) -> PiezoPatch<f32> {
+        PiezoPatch {
+            x_a: self.x_a as f32,
+            l_a: self.l_a as f32,
+            slope_diff: self.slope_diff.cast::<f32>(),
+            k_a: self.k_a as f32,
+            k_s: self.k_s as f32,
+        }
+    }
+}
+
 /// Filtered derivative `H(s) = s / (1 + s/ω_c)`, discretized with the bilinear (Tustin)
 /// transform at period `T`:
 /// `y_k = a y_{k−1} + b (x_k − x_{k−1})`, `a = (2 − ω_c T)/(2 + ω_c T)`, `b = 2 ω_c/(2 + ω_c T)`.
@@ -316,5 +329,17 @@ impl<T: Real> PiezoLaw<T> {
     /// Forgets the filter's history.
     pub fn reset(&mut self) {
         self.filter.reset();
+    }
+
+    /// `true` if the law damps: a stable derivative filter (`|a| < 1`), a negative folded gain
+    /// (`b < 0`, i.e. `k_c > 0`) and a positive finite limit. With a positive period this holds
+    /// exactly when `k_c` and the corner are finite and positive.
+    pub fn is_valid(&self) -> bool {
+        let f = &self.filter;
+        f.a.abs() < T::one()
+            && f.b < T::zero()
+            && f.b.finite()
+            && self.v_max > T::zero()
+            && self.v_max.finite()
     }
 }

@@ -6,7 +6,8 @@
 //! exact and repeatable. Each function is called through a wrapper that is never inlined, with
 //! its state in memory, the way an interrupt handler calls it: the count is the function's own
 //! work, the loads and stores of its state included. The cost of the measurement itself, the
-//! two reads around a call of an empty wrapper of the same shape, is subtracted. On hardware, the same code would read the DWT cycle counter instead.
+//! two reads around a call of an empty wrapper of the same shape, is subtracted. On hardware,
+//! the same code would read the DWT cycle counter instead.
 //!
 //! States: 200 recorded along the paper's trapezoid move (the simulated arm under the complete
 //! controller, the same code as the QEMU board) and 200 random ones. Each mean is checked
