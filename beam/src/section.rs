@@ -53,13 +53,10 @@ impl Layers {
         }
     }
 
-    /// Height of the composite's neutral axis above the film's bottom face [m].
+    /// Height of the composite's neutral axis above the film's bottom face [m]: the core's
+    /// [`PiezoMaterial::neutral_axis`], the axis the transducer constants are taken about.
     pub fn neutral_axis(&self) -> f64 {
-        let l = self.stack();
-        let (num, den) = l.iter().fold((0.0, 0.0), |(n, d), &(e, t, z, _)| {
-            (n + e * t * z, d + e * t)
-        });
-        num / den
+        self.material.neutral_axis()
     }
 
     /// The patched section: film + beam + ceramic about the composite neutral axis.

@@ -131,14 +131,17 @@ impl<T: Real> Profile<T> {
         self.duration
     }
 
-    /// `(s, ṡ, s̈)` at time `t` [s]; 0 before the start, 1 after the end.
+    /// `(s, ṡ, s̈)` at time `t` [s]; rest at 0 before the start (and for a NaN time), rest at
+    /// 1 after the end. Right-continuous at every breakpoint, the start included: at `t = 0`
+    /// the acceleration is already the first ramp's, so a zero-order hold of the sample taken
+    /// at `t = 0` feeds the first period its acceleration.
     #[inline(always)]
     pub fn sample(&self, t: T) -> (T, T, T) {
         let half = T::c(0.5);
         let z = T::zero();
-        // One comparison for NaN and t ≤ 0.
+        // One comparison for NaN and t < 0.
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
-        if !(t > z) {
+        if !(t >= z) {
             (z, z, z)
         } else if t < self.ramp {
             (half * self.accel * t * t, self.accel * t, self.accel)

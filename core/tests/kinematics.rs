@@ -175,3 +175,54 @@ fn parameters_validate() {
     };
     assert!(l.validate().is_err());
 }
+
+/// The motor loop samples the trajectory at `t = kT` and holds the sample for one period, so the
+/// desired acceleration it feeds forward integrates to `Σ_{i<k} q̈_d(iT) T`. That sum must be the
+/// analytic `q̇_d(kT)`: exactly (to round-off) on the trapezoid's ramp, where `q̈_d` is constant,
+/// and within the left-rectangle error `t T/2 · max|q⃛_d|` on the circle. A start that is not
+/// right-continuous (`q̈_d(0) = 0`) leaves the whole first period's `q̈_d(0) T` out: 2.09e-3 rad/s
+/// on the trapezoid.
+#[test]
+fn held_acceleration_integrates_to_the_desired_velocity() {
+    const T: f64 = 1e-3; // the motor period at 1 kHz
+    const PERIODS: usize = 400; // inside the first ramp of both (0.5 s)
+    let circle = JointTrajectory::Circle(Circle::<f64>::paper(0.3, 0.7).unwrap());
+    let trapezoid = JointTrajectory::Trapezoid(Trapezoid::<f64>::paper());
+    for (name, traj) in [("trapezoid", trapezoid), ("circle", circle)] {
+        // Largest jerk over the window, by central differences of q̈_d on a grid of T/10.
+        let jerk = (1..10 * PERIODS)
+            .map(|i| {
+                let t = i as f64 * T / 10.0;
+                let h = T / 100.0;
+                ((traj.sample(t + h).qdd - traj.sample(t - h).qdd) / (2.0 * h)).amax()
+            })
+            .fold(0.0, f64::max);
+        let mut v = traj.sample(0.0).qd;
+        for k in 1..=PERIODS {
+            v += traj.sample((k - 1) as f64 * T).qdd * T;
+            let t = k as f64 * T;
+            let err = (v - traj.sample(t).qd).amax();
+            let bound = t * T / 2.0 * jerk + 1e-12;
+            assert!(err <= bound, "{name}, t = {t}: {err:e} > {bound:e}");
+        }
+        // The first period's feedforward is the ramp's acceleration, not zero.
+        let a0 = traj.sample(0.0).qdd.amax();
+        assert!(a0 > 0.1, "{name}: q̈_d(0) = {a0}");
+        if name == "trapezoid" {
+            assert!(jerk == 0.0, "constant acceleration on the ramp");
+        }
+    }
+}
+
+#[test]
+fn profile_is_at_rest_before_the_start_and_for_a_nan_time() {
+    let p = Profile::<f32>::new(2.0, 0.5).unwrap();
+    assert_eq!(p.sample(-1e-6), (0.0, 0.0, 0.0));
+    assert_eq!(p.sample(f32::NAN), (0.0, 0.0, 0.0));
+    assert_eq!(p.sample(f32::NEG_INFINITY), (0.0, 0.0, 0.0));
+    // Right-continuous at the start: position and speed 0, acceleration of the first ramp.
+    let (s, sd, sdd) = p.sample(0.0);
+    assert_eq!((s, sd), (0.0, 0.0));
+    assert_eq!(sdd, 1.0 / (1.5 * 0.5));
+    assert_eq!(p.sample(f32::INFINITY), (1.0, 0.0, 0.0));
+}

@@ -16,13 +16,23 @@
 //! Polarities: the amplifier and the film are wired so that `k_a > 0` and `k_s > 0`; the sign of
 //! the physical `d31` is absorbed there.
 //!
-//! Constants the paper leaves out, and our choices (`docs/model.md`):
-//! - `k_a = E_b E_c b t_b² |d31| / (2 (E_b t_b + 6 E_c t_c))`, the Crawley–de Luis induced
-//!   moment of a bonded patch (the paper's Eq. 18 has the same denominator; its numerator is
-//!   garbled and its `1/(ρ_b A_b)` belongs to another mode normalization);
-//! - `k_s = g31 E_f t_f z_f / l_a`, the open-circuit voltage of a film of capacitance `C` per
-//!   area whose mid-plane lies `z_f = (t_b + t_f)/2` from the beam's neutral axis: charge
-//!   `e31 b z_f Δw'` over capacitance `C b l_a`, with `e31/C = g31 E_f t_f`.
+//! Constants the paper leaves out, and our choices (`docs/model.md`). Both transducers sit on
+//! the patched section, the three-layer composite film + beam + ceramic (bottom to top, width
+//! `b`), whose modulus-weighted neutral axis lies `z_n = Σ E_i t_i z_i / Σ E_i t_i` above the
+//! film's bottom face (`z_i` the mid-plane height of layer `i`). One definition serves the
+//! controller, the placement optimizer (`flexarm-beam`, whose patched-section `EI` is taken about
+//! the same axis) and the firmware's generated parameters:
+//! - `k_a = E_c b |d31| (z_c − z_n)`: the moment about the composite neutral axis of the
+//!   ceramic's induced stress `E_c d31 V/t_c` over its area `b t_c`, acting on the composite
+//!   section (`z_c` the ceramic's mid-plane). The paper's Eq. 18 denominator belongs to the
+//!   pin-force model, whose moment acts on the bare beam's `EI`; its `1/(ρ_b A_b)` belongs to
+//!   another mode normalization;
+//! - `k_s = g31 E_f t_f (z_n − z_f) / l_a`, the open-circuit voltage of a film of capacitance
+//!   `C` per area whose mid-plane `z_f` lies `z_n − z_f` below the composite neutral axis:
+//!   charge `e31 b (z_n − z_f) Δw'` over capacitance `C b l_a`, with `e31/C = g31 E_f t_f`.
+//!
+//! Neglected: the ceramic's induced axial strain, which the film also sees (a direct
+//! `V_a → V_f` feedthrough of collocated pairs on one section), and the bond layers.
 
 use crate::modes::UniformMode;
 use crate::real::Real;
@@ -73,16 +83,43 @@ impl<T: Real> Default for PiezoMaterial<T> {
 }
 
 impl<T: Real> PiezoMaterial<T> {
-    /// Bending moment per actuator volt `k_a` [N·m/V].
-    pub fn moment_per_volt(&self) -> T {
-        let num = self.e_b * self.e_c * self.b * self.t_b * self.t_b * self.d31.abs();
-        num / (T::c(2.0) * (self.e_b * self.t_b + T::c(6.0) * self.e_c * self.t_c))
+    /// Height of the patched section's modulus-weighted neutral axis above the film's bottom
+    /// face, `z_n = Σ E_i t_i z_i / Σ E_i t_i` over film, beam and ceramic [m].
+    pub fn neutral_axis(&self) -> T {
+        let half = T::c(0.5);
+        let layers = [
+            (self.e_f, self.t_f, half * self.t_f),
+            (self.e_b, self.t_b, self.t_f + half * self.t_b),
+            (self.e_c, self.t_c, self.t_f + self.t_b + half * self.t_c),
+        ];
+        let (mut num, mut den) = (T::zero(), T::zero());
+        for (e, t, z) in layers {
+            num += e * t * z;
+            den += e * t;
+        }
+        num / den
     }
 
-    /// Film voltage per radian of slope difference across a patch of length `l_a` [V/rad].
+    /// Lever arm of the ceramic, `z_c − z_n`: its mid-plane above the composite neutral
+    /// axis [m].
+    pub fn actuator_lever_arm(&self) -> T {
+        self.t_f + self.t_b + T::c(0.5) * self.t_c - self.neutral_axis()
+    }
+
+    /// Lever arm of the film, `z_n − z_f`: its mid-plane below the composite neutral axis [m].
+    pub fn film_lever_arm(&self) -> T {
+        self.neutral_axis() - T::c(0.5) * self.t_f
+    }
+
+    /// Bending moment per actuator volt `k_a = E_c b |d31| (z_c − z_n)` [N·m/V].
+    pub fn moment_per_volt(&self) -> T {
+        self.e_c * self.b * self.d31.abs() * self.actuator_lever_arm()
+    }
+
+    /// Film voltage per radian of slope difference across a patch of length `l_a`,
+    /// `k_s = g31 E_f t_f (z_n − z_f) / l_a` [V/rad].
     pub fn film_volts_per_slope(&self, l_a: T) -> T {
-        let z_f = (self.t_b + self.t_f) * T::c(0.5);
-        self.g31 * self.e_f * self.t_f * z_f / l_a
+        self.g31 * self.e_f * self.t_f * self.film_lever_arm() / l_a
     }
 }
 
