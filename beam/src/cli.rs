@@ -8,7 +8,7 @@
 //! - with `plots`: `heatmap.svg` (`J`), `heatmap_share.svg` (`J0/W0`), `gain.svg`, `modes.svg`.
 
 use crate::config::Config;
-use crate::design::{DesignModel, Normalization, Objective, Weights};
+use crate::design::{Amplifier, DesignModel, Normalization, Objective, Weights};
 use crate::fragment::piezo_fragment;
 use crate::optimize::{Bounds, Optimum, Sweep, evaluate, refine, sweep};
 use crate::plot;
@@ -53,6 +53,43 @@ fn hz(o: &Optimum) -> String {
         .map(|w| format!("{:.3}", w / TAU))
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// What the optimum asks of the amplifier, and which bound on the gain is active.
+fn amplifier_note(model: &DesignModel, best: &Optimum, k_max: f64) -> String {
+    let a = &model.amplifier;
+    let pm = &best.modes;
+    let by_mode: Vec<String> = model
+        .volts_per_gain_by_mode(pm)
+        .iter()
+        .map(|v| format!("{:.0}", best.k_c * v))
+        .collect();
+    let tips: Vec<String> = a
+        .reference_tip_speed
+        .iter()
+        .map(|r| format!("{r}"))
+        .collect();
+    let v = best.k_c * model.volts_per_gain(pm);
+    let limit = model.amplifier.v_max / model.volts_per_gain(pm);
+    let active = if a.enforce && best.k_c >= limit * (1.0 - 1e-6) {
+        format!("the amplifier (k_c ≤ {limit:.1} s at this patch)")
+    } else if best.k_c >= k_max * (1.0 - 1e-6) {
+        format!("K_max = {k_max} s")
+    } else {
+        "none: the optimum is interior in k_c".into()
+    };
+    format!(
+        "\nAmplifier: ±{} V{}. The reference vibration ({} m/s of tip speed per mode, worst phase) asks \
+         for {v:.0} V at the optimum ({} V per mode); the amplifier allows k_c ≤ {limit:.1} s at this \
+         patch. Active bound on k_c: {active}. (k_a = {:.4e} N·m/V, k_s = {:.4e} V/rad, Δφ' = {:?}.)\n",
+        a.v_max,
+        if a.enforce { "" } else { " (not enforced)" },
+        tips.join(", "),
+        by_mode.join(" / "),
+        pm.k_a,
+        pm.k_s,
+        pm.slope_diff
+    )
 }
 
 fn row(label: &str, o: &Optimum) -> String {
@@ -158,27 +195,21 @@ pub fn run_optimize(
             out.push_str(&row(label, &p));
         }
     }
-    // Voltage needed: V_a = k_c k_s |Δφ'_j| ω_j δ_j for a 1 cm tip amplitude of mode j alone.
-    let pm = &best.modes;
-    let volts: Vec<String> = pm
-        .modes
-        .iter()
-        .zip(&pm.slope_diff)
-        .map(|(m, d)| {
-            let delta = 0.01 / m.phi(model.length).abs();
-            format!("{:.0}", best.k_c * pm.k_s * d.abs() * m.omega * delta)
-        })
-        .collect();
-    let _ = writeln!(
-        out,
-        "\nAt the optimum a 1 cm tip vibration in mode 1 or mode 2 alone asks the amplifier for {} V \
-         (k_a = {:.4e} N·m/V, k_s = {:.4e} V/rad, Δφ' = {:?}).",
-        volts.join(" V / "),
-        pm.k_a,
-        pm.k_s,
-        pm.slope_diff
-    );
-
+    // Without the amplifier: the paper's problem, bounded by K_max alone.
+    let free_model = DesignModel {
+        amplifier: Amplifier {
+            enforce: false,
+            ..model.amplifier.clone()
+        },
+        ..model.clone()
+    };
+    if model.amplifier.enforce {
+        let free = sweep(&free_model, o.step, o.min_length, &o.k_c);
+        if let Ok(u) = optimum(&free_model, &w, &free, &cfg) {
+            out.push_str(&row("without the amplifier constraint", &u));
+        }
+    }
+    out.push_str(&amplifier_note(&model, &best, o.k_max));
     if cfg.sensitivity.enabled {
         let _ = writeln!(
             out,
@@ -287,17 +318,19 @@ pub fn run_optimize(
     }
 
     // Files.
-    let mut csv =
-        String::from("x_a_m,l_a_m,best_k_c_s,J,J0,W0,f1_hz,f2_hz,slope_diff1,slope_diff2\n");
+    let mut csv = String::from(
+        "x_a_m,l_a_m,best_k_c_s,k_c_limit_s,J,J0,W0,f1_hz,f2_hz,slope_diff1,slope_diff2\n",
+    );
     let bpp = s.best_per_point(&w);
     for (p, (k, j)) in s.points.iter().zip(&bpp) {
         let g = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(f64::NAN);
         let _ = writeln!(
             csv,
-            "{:.4},{:.4},{},{:e},{:e},{:e},{:.6},{:.6},{:e},{:e}",
+            "{:.4},{:.4},{},{:e},{:e},{:e},{:e},{:.6},{:.6},{:e},{:e}",
             p.x_a,
             p.l_a,
             s.gains.get(*k).copied().unwrap_or(f64::NAN),
+            p.k_limit,
             j,
             g(&p.j0, *k),
             p.w0,
@@ -343,6 +376,16 @@ pub fn run_optimize(
             model.length,
             &best,
         )?;
+        let limit: Vec<f64> = s.points.iter().map(|p| p.k_limit.min(o.k_max)).collect();
+        plot::heat_map(
+            &out_dir.join("heatmap_gain_limit.svg"),
+            &s,
+            &limit,
+            "largest feasible k_c [s]: min(K_max, amplifier limit); feasible gains lie below",
+            o.step,
+            model.length,
+            &best,
+        )?;
         plot::gain_curves(
             &out_dir.join("gain.svg"),
             &model,
@@ -357,7 +400,7 @@ pub fn run_optimize(
         "\nWrote {}: grid.csv, piezo.toml, summary.md{}.",
         out_dir.display(),
         if plots {
-            ", heatmap.svg, heatmap_share.svg, gain.svg, modes.svg"
+            ", heatmap.svg, heatmap_share.svg, heatmap_gain_limit.svg, gain.svg, modes.svg"
         } else {
             ""
         }

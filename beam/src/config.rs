@@ -2,7 +2,7 @@
 //! where it gives one); unknown keys are refused so that a typo cannot pass silently.
 //! `beam/examples/optimize.toml` lists every key with its unit.
 
-use crate::design::{DesignModel, Normalization, Objective, Weights};
+use crate::design::{Amplifier, DesignModel, Normalization, Objective, Weights};
 use crate::section::Layers;
 use flexarm_core::control::piezo::PiezoMaterial;
 use serde::Deserialize;
@@ -150,6 +150,30 @@ impl Default for OptimizeConfig {
     }
 }
 
+/// The piezo amplifier and the reference vibration it must serve
+/// ([`crate::design::Amplifier`]).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AmplifierConfig {
+    /// Largest output voltage magnitude `V_max` [V].
+    pub v_max: f64,
+    /// Tip speed of each mode in the reference vibration [m/s], one per mode kept.
+    pub reference_tip_speed: Vec<f64>,
+    /// Keep `k_c` within what the amplifier can serve (`false`: the paper's problem).
+    pub enforce: bool,
+}
+
+impl Default for AmplifierConfig {
+    fn default() -> Self {
+        let a = Amplifier::default();
+        Self {
+            v_max: a.v_max,
+            reference_tip_speed: a.reference_tip_speed,
+            enforce: a.enforce,
+        }
+    }
+}
+
 /// Which sensitivity studies to run (each re-optimizes with one value changed).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -194,6 +218,8 @@ pub struct Config {
     pub piezo: PiezoConfig,
     /// The search.
     pub optimize: OptimizeConfig,
+    /// The amplifier constraint.
+    pub amplifier: AmplifierConfig,
     /// Sensitivity studies.
     pub sensitivity: SensitivityConfig,
 }
@@ -311,6 +337,18 @@ impl Config {
                 )
             })?;
         }
+        let a = &self.amplifier;
+        positive("amplifier.v_max", a.v_max)?;
+        check(a.reference_tip_speed.len() == b.zeta.len(), || {
+            format!(
+                "`amplifier.reference_tip_speed` has {} speeds but `beam.zeta` keeps {} modes",
+                a.reference_tip_speed.len(),
+                b.zeta.len()
+            )
+        })?;
+        for r in &a.reference_tip_speed {
+            positive("amplifier.reference_tip_speed[]", *r)?;
+        }
         let s = &self.sensitivity;
         for v in &s.alpha {
             non_negative("sensitivity.alpha[]", *v)?;
@@ -358,6 +396,11 @@ impl Config {
             patch_structure: b.patch_structure,
             normalization: self.optimize.normalization,
             lambda: self.optimize.lambda.clone(),
+            amplifier: Amplifier {
+                v_max: self.amplifier.v_max,
+                reference_tip_speed: self.amplifier.reference_tip_speed.clone(),
+                enforce: self.amplifier.enforce,
+            },
         }
     }
 

@@ -20,6 +20,17 @@
 //! `J = α l_a² + β_c k_c − J0` (the paper's Eq. 35 with the gain penalty `β_c k_c` its text
 //! adds for Fig. 14), or with [`Objective::Fraction`] `J0` replaced by `J0 / W0`, the share of
 //! the initial energy `W0 = tr(W_aᵀ E W_a)`, `E = ½ diag(K̃, B̃)`, that the control removes.
+//!
+//! ## The amplifier
+//! `J0` is the energy a linear, unsaturated loop removes, so it keeps rewarding gain past the
+//! point where the amplifier clips. [`Amplifier`] adds the amplifier to the problem: a reference
+//! vibration, every mode `j` at a stated tip speed `v_j` in the worst phase (the voltages add),
+//! must not ask for more than `V_max`. With `V_a = −k_c k_s Δφ'ᵀ δ̇` and mode `j` at speed
+//! `v_j/|φ_j(a2)|` (unit modal mass), the peak is `k_c Σ_j k_s |Δφ'_j| v_j / |φ_j(a2)|`, linear
+//! in `k_c`: per patch the constraint is an upper bound on the gain,
+//! [`DesignModel::gain_limit`]. A speed, not a deflection, because the loop feeds back a rate:
+//! the same tip speed asks the same voltage of beams whose frequencies differ (the design beam
+//! and the controller's paper modes, `crate::fragment`).
 
 use crate::lyapunov::solve_lyapunov;
 use crate::section::Layers;
@@ -50,6 +61,52 @@ pub enum Objective {
     Fraction,
 }
 
+/// The piezo amplifier as a constraint of the design (module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Amplifier {
+    /// Largest voltage magnitude the amplifier delivers `V_max` [V].
+    pub v_max: f64,
+    /// Tip speed `v_j` of each mode in the reference vibration [m/s]; a mode past the end of
+    /// the list takes the last value.
+    pub reference_tip_speed: Vec<f64>,
+    /// Whether the optimizer keeps `k_c` within [`DesignModel::gain_limit`]. `false` is the
+    /// paper's problem, bounded by `K_max` alone.
+    pub enforce: bool,
+}
+
+impl Default for Amplifier {
+    /// ±200 V; 0.2 m/s of mode 1 and 0.02 m/s of mode 2 at the tip, rounded up from the
+    /// largest modal tip speeds of the paper's moves under Eq. 7 (0.140 and 0.0126 m/s on the
+    /// trapezoid, `docs/optimization.md`).
+    fn default() -> Self {
+        Self {
+            v_max: 200.0,
+            reference_tip_speed: vec![0.2, 0.02],
+            enforce: true,
+        }
+    }
+}
+
+/// Peak of `|V_a| / k_c` [V/s] for a vibration of tip speeds `speed` [m/s] in the worst phase,
+/// on modes of tip values `tip` [1/√kg] and slope differences `slope_diff` [1/(m·√kg)]
+/// (unit modal mass): `Σ_j k_s |Δφ'_j| v_j / |φ_j(a2)|`.
+pub fn reference_volts_per_gain(
+    k_s: f64,
+    slope_diff: &[f64],
+    tip: &[f64],
+    speed: &[f64],
+) -> Vec<f64> {
+    slope_diff
+        .iter()
+        .zip(tip)
+        .enumerate()
+        .map(|(j, (d, t))| {
+            let v = speed.get(j).or(speed.last()).copied().unwrap_or(0.0);
+            k_s * d.abs() * v / t.abs().max(f64::MIN_POSITIVE)
+        })
+        .collect()
+}
+
 /// Everything the design model needs besides the patch itself.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DesignModel {
@@ -70,6 +127,8 @@ pub struct DesignModel {
     pub normalization: Normalization,
     /// Initial-state weights `λ_j` (Eq. 32), one per mode.
     pub lambda: Vec<f64>,
+    /// The amplifier and the reference vibration it must serve.
+    pub amplifier: Amplifier,
 }
 
 impl Default for DesignModel {
@@ -83,6 +142,7 @@ impl Default for DesignModel {
             patch_structure: true,
             normalization: Normalization::UnitModalMass,
             lambda: vec![20.0, 10.0],
+            amplifier: Amplifier::default(),
         }
     }
 }
@@ -172,6 +232,34 @@ impl DesignModel {
             k_a: self.layers.material.moment_per_volt(),
             k_s: self.layers.material.film_volts_per_slope(l_a),
         })
+    }
+
+    /// Peak amplifier voltage per second of gain that the reference vibration asks for,
+    /// `Σ_j k_s |Δφ'_j| v_j / |φ_j(a2)|` [V/s] (module docs). Independent of the
+    /// normalization: it is a physical vibration.
+    pub fn volts_per_gain(&self, pm: &PatchModes) -> f64 {
+        self.volts_per_gain_by_mode(pm).iter().sum()
+    }
+
+    /// The terms of [`Self::volts_per_gain`], one per mode [V/s].
+    pub fn volts_per_gain_by_mode(&self, pm: &PatchModes) -> Vec<f64> {
+        let tip: Vec<f64> = pm.modes.iter().map(|m| m.phi(self.length)).collect();
+        reference_volts_per_gain(
+            pm.k_s,
+            &pm.slope_diff,
+            &tip,
+            &self.amplifier.reference_tip_speed,
+        )
+    }
+
+    /// The largest gain the amplifier allows at this patch, `V_max / volts_per_gain` [s];
+    /// infinite when the constraint is not enforced.
+    pub fn gain_limit(&self, pm: &PatchModes) -> f64 {
+        if self.amplifier.enforce {
+            self.amplifier.v_max / self.volts_per_gain(pm)
+        } else {
+            f64::INFINITY
+        }
     }
 
     /// Mode scale factors `s_j` of the chosen normalization.
@@ -346,6 +434,71 @@ mod tests {
                 assert!(rel < 1e-5, "{norm:?} k_c {k_c}: J0 {} vs sim {sim}", e.j0);
             }
         }
+    }
+
+    /// Peak `|V_a| = k_c k_s |Δφ'ᵀ δ̇|` over the free response of the modal loop from `z0`
+    /// (unit modal mass), RK4 at 10 µs for 2 s.
+    fn simulated_peak_voltage(m: &DesignModel, pm: &PatchModes, k_c: f64, z0: &[f64]) -> f64 {
+        let (h, _, _) = m.loop_matrices(pm, k_c);
+        let n = pm.modes.len();
+        let f = |z: &[f64]| -> Vec<f64> {
+            (0..2 * n)
+                .map(|i| (0..2 * n).map(|j| h[(i, j)] * z[j]).sum())
+                .collect()
+        };
+        let volts = |z: &[f64]| {
+            k_c * pm.k_s
+                * (0..n)
+                    .map(|j| pm.slope_diff[j] * z[n + j])
+                    .sum::<f64>()
+                    .abs()
+        };
+        let dt = 1e-5;
+        let mut z = z0.to_vec();
+        let mut peak = volts(&z);
+        for _ in 0..200_000 {
+            let k1 = f(&z);
+            let y: Vec<f64> = z.iter().zip(&k1).map(|(a, k)| a + dt / 2.0 * k).collect();
+            let k2 = f(&y);
+            let y: Vec<f64> = z.iter().zip(&k2).map(|(a, k)| a + dt / 2.0 * k).collect();
+            let k3 = f(&y);
+            let y: Vec<f64> = z.iter().zip(&k3).map(|(a, k)| a + dt * k).collect();
+            let k4 = f(&y);
+            for i in 0..2 * n {
+                z[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+            peak = peak.max(volts(&z));
+        }
+        peak
+    }
+
+    #[test]
+    fn reference_voltage_bounds_the_free_response_and_is_tight_for_a_light_loop() {
+        let m = model();
+        let Ok(pm) = m.patch_modes(0.09, 0.35) else {
+            unreachable!("modes")
+        };
+        let per_mode = m.volts_per_gain_by_mode(&pm);
+        for (j, v) in [0.2, 0.02].into_iter().enumerate() {
+            // Mode j released from rest at the amplitude whose undamped tip speed is v.
+            let mut z0 = vec![0.0; 4];
+            z0[j] = v / (pm.modes[j].omega * pm.modes[j].phi(0.7).abs());
+            for k_c in [0.1, 10.0, 100.0] {
+                let sim = simulated_peak_voltage(&m, &pm, k_c, &z0);
+                let bound = k_c * per_mode[j];
+                assert!(
+                    sim <= bound * (1.0 + 1e-6),
+                    "mode {j}, k_c {k_c}: {sim} > {bound}"
+                );
+                if k_c == 0.1 {
+                    // A light loop: the peak comes about a quarter period in, after the
+                    // structural damping's decay e^(−ζ π/2) = 0.90 (ζ1 = 7 %), 0.95 (ζ2 = 3 %).
+                    assert!(sim > 0.85 * bound, "mode {j}: {sim} vs {bound}");
+                }
+            }
+        }
+        assert!((m.volts_per_gain(&pm) - per_mode.iter().sum::<f64>()).abs() < 1e-12);
+        assert!((m.gain_limit(&pm) * m.volts_per_gain(&pm) - 200.0).abs() < 1e-9);
     }
 
     #[test]

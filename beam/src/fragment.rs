@@ -11,7 +11,7 @@
 //! | `piezo.k_a` | N·m/V | actuator moment per volt |
 //! | `piezo.k_s` | V/rad | film volts per radian of slope difference |
 //! | `piezo.c_s` | V²/(N·m) | `k_s / k_a` (Eq. 19) |
-//! | `piezo.k_c_paper_modes` | s | the gain that gives mode 1 of the paper's modes (uniform shapes of the arm's `m2`, `a2`, `ω1 = 2π·4.716`) the same control damping ratio `k_c k_s k_a Δφ'₁² / (2 ω₁)` as `k_c` gives the design beam |
+//! | `piezo.k_c_paper_modes` | s | the gain that gives mode 1 of the paper's modes (uniform shapes of the arm's `m2`, `a2`, `ω1 = 2π·4.716`) the same control damping ratio `k_c k_s k_a Δφ'₁² / (2 ω₁)` as `k_c` gives the design beam, capped by the amplifier's gain limit on those modes ([`paper_modes_gain_limit`]) |
 //! | `piezo.modes` | – | `"paper"` (default): the controller and plant keep the paper's frequencies and uniform-link shapes; `"computed"`: use `[piezo.computed]` |
 //! | `piezo.slope_diff` | 1/(m·√kg) | `Δφ'` of the uniform arm shapes (`m2`, `a2` of the arm), used with `modes = "paper"` |
 //! | `piezo.computed.omega` | rad/s | frequencies of the patched design beam |
@@ -25,10 +25,11 @@
 //! | `piezo.computed.beam_mass` | kg | mass of the design beam with the patch |
 
 use crate::config::ConfigError;
-use crate::design::{DesignModel, PatchModes};
+use crate::design::{DesignModel, PatchModes, reference_volts_per_gain};
 use crate::optimize::Optimum;
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_core::modes::UniformMode;
 use flexarm_core::params::{ArmParams, ModalData};
 
 /// Modal integrals of the patched beam: `(∫ρφ + M φ(L), ∫ρxφ + M L φ(L) + J φ'(L), φ(L))`
@@ -84,6 +85,30 @@ fn list(v: &[f64]) -> String {
     format!("[{}]", items.join(", "))
 }
 
+/// The largest gain [s] with which the paper's modes (uniform shapes of the arm's `m2`, `a2`)
+/// ask at most `V_max` for the model's reference vibration ([`crate::design::Amplifier`]);
+/// infinite when the amplifier is not enforced.
+pub fn paper_modes_gain_limit(
+    model: &DesignModel,
+    uniform: &PiezoPatch<f64>,
+    arm: &ArmParams<f64>,
+) -> f64 {
+    let a = &model.amplifier;
+    if !a.enforce {
+        return f64::INFINITY;
+    }
+    let tip = [0, 1].map(|j| UniformMode::new(j, arm.m2, arm.a2).phi(arm.a2));
+    let per_gain: f64 = reference_volts_per_gain(
+        uniform.k_s,
+        &[uniform.slope_diff.x, uniform.slope_diff.y],
+        &tip,
+        &a.reference_tip_speed,
+    )
+    .iter()
+    .sum();
+    a.v_max / per_gain
+}
+
 /// The `[piezo]` fragment for the design point `opt` on the arm `arm`.
 pub fn piezo_fragment(model: &DesignModel, opt: &Optimum, arm: &ArmParams<f64>) -> String {
     let pm = &opt.modes;
@@ -99,12 +124,14 @@ pub fn piezo_fragment(model: &DesignModel, opt: &Optimum, arm: &ArmParams<f64>) 
     let hz: Vec<f64> = omega.iter().map(|w| w / std::f64::consts::TAU).collect();
     let c_a: Vec<f64> = pm.slope_diff.iter().map(|d| d * pm.k_a).collect();
     let col = |f: fn(&(f64, f64, f64)) -> f64| ints.iter().map(f).collect::<Vec<f64>>();
-    // Same control-added damping ratio of mode 1 on the paper's modes.
+    // Same control-added damping ratio of mode 1 on the paper's modes, within what the
+    // amplifier allows on those modes for the same reference vibration.
     let k_c_paper = {
         let d = pm.slope_diff.first().copied().unwrap_or(f64::NAN);
         let w = pm.modes.first().map_or(f64::NAN, |m| m.omega);
         let du = uniform.slope_diff.x;
-        opt.k_c * (d * d / w) / (du * du / arm.modes.omega.x)
+        let equal_damping = opt.k_c * (d * d / w) / (du * du / arm.modes.omega.x);
+        equal_damping.min(paper_modes_gain_limit(model, &uniform, arm))
     };
     let beam_mass = model.beam(opt.x_a, opt.l_a).map_or(f64::NAN, |b| b.mass());
     format!(
@@ -116,7 +143,7 @@ pub fn piezo_fragment(model: &DesignModel, opt: &Optimum, arm: &ArmParams<f64>) 
          k_a = {:?}   # actuator moment per volt [N m/V]\n\
          k_s = {:?}   # film volts per radian of slope difference [V/rad]\n\
          c_s = {:?}   # k_s / k_a (Eq. 19) [V^2/(N m)]\n\
-         k_c_paper_modes = {:?}   # gain giving the paper's mode 1 the same control damping ratio [s]\n\
+         k_c_paper_modes = {:?}   # gain giving the paper's mode 1 the same control damping ratio, within the amplifier [s]\n\
          modes = \"paper\"   # \"paper\": paper's frequencies, uniform shapes; \"computed\": [piezo.computed]\n\
          slope_diff = {}   # delta phi' of the uniform arm shapes (m2 = {:?} kg, a2 = {:?} m) [1/(m sqrt(kg))]\n\
          \n\
@@ -348,7 +375,15 @@ mod tests {
 
     #[test]
     fn fragment_is_valid_toml_with_the_design_values() {
-        let m = DesignModel::default();
+        // The amplifier not enforced: the paper-mode gain is the equal-damping one.
+        let enforced = DesignModel::default();
+        let m = DesignModel {
+            amplifier: crate::design::Amplifier {
+                enforce: false,
+                ..enforced.amplifier.clone()
+            },
+            ..enforced.clone()
+        };
         let Some(opt) = evaluate(&m, &Weights::default(), 0.09, 0.35, 30.0) else {
             unreachable!("feasible")
         };
@@ -375,6 +410,19 @@ mod tests {
             (zeta_arm / zeta_design - 1.0).abs() < 1e-12,
             "{zeta_arm} {zeta_design}"
         );
+        // Enforced, the equal-damping gain asks more than ±200 V of the paper's
+        // modes for the reference vibration: capped where it asks exactly 200 V.
+        let capped = piezo_fragment(&enforced, &opt, &arm);
+        let kc = read_piezo(&capped, arm.a2).map(|c| c.controller_k_c());
+        let limit = paper_modes_gain_limit(&enforced, &core, &arm);
+        assert!(limit < kp, "{limit} vs {kp}");
+        assert_eq!(kc, Ok(limit));
+        let tip = [0, 1].map(|j| UniformMode::new(j, arm.m2, arm.a2).phi(arm.a2));
+        let volts: f64 = [0, 1]
+            .map(|j| limit * core.k_s * core.slope_diff[j].abs() * [0.2, 0.02][j] / tip[j].abs())
+            .iter()
+            .sum();
+        assert!((volts - 200.0).abs() < 1e-9, "{volts}");
         // The uniform slope differences are the core's for the paper's patch.
         let sd = p
             .and_then(|p| p.get("slope_diff"))

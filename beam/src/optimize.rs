@@ -24,6 +24,9 @@ pub struct GridPoint {
     pub j0: Vec<f64>,
     /// `W0`, the energy of the weighted initial states.
     pub w0: f64,
+    /// Largest gain the amplifier allows here [s] ([`DesignModel::gain_limit`]; infinite when
+    /// not enforced, NaN if the modes failed). Gains above it are infeasible.
+    pub k_limit: f64,
 }
 
 /// A whole grid.
@@ -70,6 +73,7 @@ fn point(model: &DesignModel, x_a: f64, l_a: f64, gains: &[f64]) -> GridPoint {
             GridPoint {
                 x_a,
                 l_a,
+                k_limit: model.gain_limit(&pm),
                 omega: pm.omega(),
                 slope_diff: pm.slope_diff,
                 j0,
@@ -83,6 +87,7 @@ fn point(model: &DesignModel, x_a: f64, l_a: f64, gains: &[f64]) -> GridPoint {
             slope_diff: Vec::new(),
             j0: vec![f64::NAN; gains.len()],
             w0: f64::NAN,
+            k_limit: f64::NAN,
         },
     }
 }
@@ -100,10 +105,11 @@ pub fn sweep(model: &DesignModel, step: f64, min_length: f64, gains: &[f64]) -> 
 }
 
 impl Sweep {
-    /// `J` at patch `p` and gain index `k` (NaN if unavailable).
+    /// `J` at patch `p` and gain index `k` (NaN if unavailable or above the amplifier's gain
+    /// limit).
     pub fn objective(&self, w: &Weights, p: usize, k: usize) -> f64 {
         match (self.points.get(p), self.gains.get(k)) {
-            (Some(pt), Some(&kc)) => {
+            (Some(pt), Some(&kc)) if kc <= pt.k_limit => {
                 let j0 = pt.j0.get(k).copied().unwrap_or(f64::NAN);
                 w.objective(pt.l_a, kc, &Energy { j0, w0: pt.w0 })
             }
@@ -196,8 +202,10 @@ pub struct Bounds {
 /// Bounded compass search over `(x_a, l_a, ln k_c)` from `start`, initial steps
 /// `(h/2, h/2, ln 1.25)`, halving on failure, until the steps fall below
 /// `(1e-5 m, 1e-5 m, 1e-4)` or 600 evaluations. Every trial point is projected onto
-/// `0 ≤ x_a`, `min_length ≤ l_a`, `x_a + l_a ≤ a2`, `k_min ≤ k_c ≤ k_max`. Returns the best
-/// point seen (never worse than `start`).
+/// `0 ≤ x_a`, `min_length ≤ l_a`, `x_a + l_a ≤ a2`, `k_min ≤ k_c ≤ min(k_max, k_limit)` with
+/// `k_limit` the amplifier's gain limit at the trial patch (so a point on that moving boundary
+/// can slide along it). Returns the best point seen (never worse than `start`); `None` if the
+/// start cannot be evaluated or the amplifier allows no gain above `k_min` there.
 pub fn refine(
     model: &DesignModel,
     w: &Weights,
@@ -212,8 +220,15 @@ pub fn refine(
         let lk = lk.clamp(b.k_min.ln(), b.k_max.ln());
         (x, l, lk)
     };
+    // The gain as the amplifier allows it at the patch of `pm`.
+    let within = |pm: &PatchModes, lk: f64| {
+        let cap = model.gain_limit(pm).ln();
+        (cap >= b.k_min.ln()).then_some(lk.min(cap))
+    };
     let (x0, l0, lk0) = project(start.0, start.1, start.2.ln());
-    let mut best = evaluate(model, w, x0, l0, lk0.exp())?;
+    let pm0 = model.patch_modes(x0, l0).ok()?;
+    let lk0 = within(&pm0, lk0)?;
+    let mut best = evaluate_modes(model, w, pm0, lk0.exp())?;
     let mut u = [x0, l0, lk0];
     let mut steps = [h / 2.0, h / 2.0, 1.25f64.ln()];
     let tol = [1e-5, 1e-5, 1e-4];
@@ -225,16 +240,19 @@ pub fn refine(
                 let mut v = u;
                 v[d] += sgn * steps[d];
                 let (x, l, lk) = project(v[0], v[1], v[2]);
+                let pm = if d == 2 {
+                    Some(best.modes.clone())
+                } else {
+                    model.patch_modes(x, l).ok()
+                };
+                let Some((pm, lk)) = pm.and_then(|pm| within(&pm, lk).map(|lk| (pm, lk))) else {
+                    continue;
+                };
                 if (x - u[0]).abs() + (l - u[1]).abs() + (lk - u[2]).abs() == 0.0 {
                     continue;
                 }
                 evals += 1;
-                let cand = if d == 2 {
-                    evaluate_modes(model, w, best.modes.clone(), lk.exp())
-                } else {
-                    evaluate(model, w, x, l, lk.exp())
-                };
-                if let Some(c) = cand
+                if let Some(c) = evaluate_modes(model, w, pm, lk.exp())
                     && c.j < best.j
                 {
                     best = c;
@@ -304,6 +322,64 @@ mod tests {
     }
 
     #[test]
+    fn the_amplifier_bounds_the_gain_and_the_optimum_respects_it() {
+        // With the defaults the optimum asks 192 V of the ±200 V amplifier (constraint
+        // inactive); a ±100 V amplifier makes it bind.
+        let default = DesignModel::default();
+        let Some(d) = refine(
+            &default,
+            &Weights::default(),
+            (0.0, 0.5, 30.0),
+            0.02,
+            &Bounds {
+                min_length: 0.01,
+                k_min: 1.0,
+                k_max: 1000.0,
+            },
+        ) else {
+            unreachable!("feasible")
+        };
+        assert!(d.k_c * default.volts_per_gain(&d.modes) <= 200.0);
+        let m = DesignModel {
+            amplifier: crate::design::Amplifier {
+                v_max: 100.0,
+                ..default.amplifier.clone()
+            },
+            ..default.clone()
+        };
+        let w = Weights::default();
+        let b = Bounds {
+            min_length: 0.01,
+            k_min: 1.0,
+            k_max: 1000.0,
+        };
+        let free = DesignModel {
+            amplifier: crate::design::Amplifier {
+                enforce: false,
+                ..m.amplifier.clone()
+            },
+            ..m.clone()
+        };
+        let (Some(r), Some(u)) = (
+            refine(&m, &w, (0.0, 0.5, 30.0), 0.02, &b),
+            refine(&free, &w, (0.0, 0.5, 30.0), 0.02, &b),
+        ) else {
+            unreachable!("feasible")
+        };
+        // The constrained optimum asks at most V_max of the amplifier, and sits on the limit:
+        // without it the paper's objective takes more gain than the amplifier can serve.
+        let v = r.k_c * m.volts_per_gain(&r.modes);
+        assert!(v <= m.amplifier.v_max * (1.0 + 1e-9), "{v} V");
+        assert!(
+            v > 0.99 * m.amplifier.v_max,
+            "{v} V: the constraint is active"
+        );
+        assert!(u.k_c * m.volts_per_gain(&u.modes) > 1.1 * m.amplifier.v_max);
+        assert!(u.j < r.j, "the constraint costs objective");
+        assert_eq!(free.gain_limit(&u.modes), f64::INFINITY);
+    }
+
+    #[test]
     fn grid_best_is_the_minimum_of_all_points() {
         let m = DesignModel::default();
         let w = Weights::default();
@@ -314,7 +390,15 @@ mod tests {
         };
         for q in 0..s.points.len() {
             for g in 0..3 {
-                assert!(s.objective(&w, q, g) >= j);
+                let o = s.objective(&w, q, g);
+                if s.gains[g] <= s.points[q].k_limit {
+                    assert!(o >= j);
+                } else {
+                    assert!(
+                        o.is_nan(),
+                        "a gain above the amplifier's limit is infeasible"
+                    );
+                }
             }
         }
         // The stored J0 is the one a direct evaluation gives.

@@ -180,7 +180,10 @@ fn rate_filter_tracks_a_slow_sine_and_the_law_dissipates() {
     assert!(energy < 0.0, "work done on the mode {energy} J");
     // A 100 Hz corner at 4.7 Hz: gain error < 0.2 %, phase 2.7°, so |error| < 5 % of the peak.
     let peak = 5.0 * patch.k_s * patch.slope_diff.x.abs() * 0.01 * w;
-    assert!(peak < 200.0, "the amplitude keeps the law off its limit: {peak} V");
+    assert!(
+        peak < 200.0,
+        "the amplitude keeps the law off its limit: {peak} V"
+    );
     assert!(max_err < 0.05 * peak, "max error {max_err} V of {peak} V");
 }
 
@@ -231,7 +234,11 @@ fn transducer_lever_arms_come_from_the_composite_section() {
     let zn = (2e9 * 28e-6 * 14e-6 + 65e9 * 0.8e-3 * 0.428e-3 + 64e9 * 0.8e-3 * 1.228e-3)
         / (2e9 * 28e-6 + 65e9 * 0.8e-3 + 64e9 * 0.8e-3);
     assert!((m.neutral_axis() - zn).abs() < 1e-15);
-    assert!((m.film_lever_arm() - 0.8105e-3).abs() < 1e-7, "{}", m.film_lever_arm());
+    assert!(
+        (m.film_lever_arm() - 0.8105e-3).abs() < 1e-7,
+        "{}",
+        m.film_lever_arm()
+    );
     assert!((m.actuator_lever_arm() - 0.4035e-3).abs() < 1e-7);
     // Three equal layers: a solid strip of thickness 3t, axis at 1.5 t, both arms t.
     let t = 1e-3;
