@@ -365,13 +365,18 @@ pub fn run_optimize(
         let share: Vec<f64> = s
             .points
             .iter()
-            .map(|p| p.j0.iter().fold(f64::NAN, |m, j| m.max(j / p.w0)))
+            .map(|p| {
+                p.j0.iter()
+                    .zip(&s.gains)
+                    .filter(|(_, k)| **k <= p.k_limit)
+                    .fold(f64::NAN, |m, (j, _)| m.max(j / p.w0))
+            })
             .collect();
         plot::heat_map(
             &out_dir.join("heatmap_share.svg"),
             &s,
             &share,
-            "J0/W0: share of the initial energy removed (best k_c per patch)",
+            "J0/W0: share of the initial energy removed (best feasible k_c per patch)",
             o.step,
             model.length,
             &best,
