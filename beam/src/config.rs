@@ -460,6 +460,17 @@ mod tests {
             ("[optimize]\nnormalization = \"max\"", "normalization"),
             ("[beam]\nzeta = [0.1, 1.5]", "beam.zeta"),
             ("[optimize]\nstep = 0.00001", "2000"),
+            ("[amplifier]\nv_max = 0.0", "amplifier.v_max"),
+            ("[amplifier]\nv_max = nan", "amplifier.v_max"),
+            (
+                "[amplifier]\nreference_tip_speed = [0.2]",
+                "amplifier.reference_tip_speed",
+            ),
+            (
+                "[amplifier]\nreference_tip_speed = [0.2, -0.1]",
+                "amplifier.reference_tip_speed[]",
+            ),
+            ("[amplifier]\nenforce = 1", "enforce"),
             ("[beam", "TOML"),
         ] {
             match Config::from_toml(text) {
