@@ -38,6 +38,7 @@ pub mod plant;
 pub mod real;
 pub mod simarm;
 pub mod supervisor;
+pub mod time;
 pub mod trajectory;
 
 pub use fault::Fault;

@@ -55,6 +55,7 @@ mod app {
     use flexarm_core::control::motor::MotorLaw;
     use flexarm_core::observer::Measurement;
     use flexarm_core::observer_gains::gain;
+    use flexarm_core::time::{MoveClock, Ticks};
     use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
     use flexarm_core::{Fault, Vector2};
     use heapless::spsc::{Consumer, Producer};
@@ -103,7 +104,9 @@ mod app {
         producer: Producer<'static, Record>,
         consumer: Consumer<'static, Record>,
         piezo_ticks: u32,
-        motor_steps: u32,
+        now: Ticks,
+        move_clock: MoveClock,
+        telemetry_countdown: u32,
         last_heartbeat: u32,
         supervisor_ticks: u32,
         reported_fault: bool,
@@ -239,7 +242,10 @@ mod app {
                 producer,
                 consumer,
                 piezo_ticks: 0,
-                motor_steps: 0,
+                now: config::START_TICK,
+                // The boot move starts with the first motor period.
+                move_clock: MoveClock::new(config::START_TICK, MOTOR_HZ),
+                telemetry_countdown: 0,
                 last_heartbeat: 0,
                 supervisor_ticks: 0,
                 reported_fault: false,
@@ -305,20 +311,25 @@ mod app {
     }
 
     /// Motor loop: encoders and film in, observer, Eq. 7, torques out.
-    #[task(binds = TIM3, priority = 2, local = [tim3, producer, motor_steps, telemetry_drops, fault_sent], shared = [ctrl, board, check])]
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, telemetry_drops, fault_sent], shared = [ctrl, board, check])]
     fn motor_loop(mut cx: motor_loop::Context) {
         let start = clock::now();
         cx.local.tim3.sr().write(|w| w.uif().clear_bit());
-        let k = *cx.local.motor_steps;
-        *cx.local.motor_steps = k.wrapping_add(1);
-        let t = k as f32 / MOTOR_HZ as f32;
+        // The time base: this period's tick; the move's own time from the integer difference.
+        let tick = *cx.local.now;
+        *cx.local.now = tick.next();
+        let t = cx.local.move_clock.local_time(tick);
 
         let (theta, v_f, amp_fault) = cx
             .shared
             .board
             .lock(|b| (b.encoders(), b.film_voltage(), b.amplifier_fault()));
         // The estimate is read only for the telemetry samples.
-        let sample = k.is_multiple_of(config::TELEMETRY_EVERY);
+        let sample = *cx.local.telemetry_countdown == 0;
+        *cx.local.telemetry_countdown = match *cx.local.telemetry_countdown {
+            0 => config::TELEMETRY_EVERY - 1,
+            n => n - 1,
+        };
         let (report, fault, q_hat) = cx.shared.ctrl.lock(|c| {
             if amp_fault {
                 c.trip(Fault::Amplifier);
@@ -340,16 +351,21 @@ mod app {
         let producer = cx.local.producer;
         let mut push = |r: Record| {
             if producer.enqueue(r).is_err() {
-                *cx.local.telemetry_drops += 1;
+                *cx.local.telemetry_drops = cx.local.telemetry_drops.saturating_add(1);
             }
         };
         if let (Some(fault), false) = (fault, *cx.local.fault_sent) {
             *cx.local.fault_sent = true;
-            push(Record::Fault { t, fault });
+            push(Record::Fault {
+                tick: tick.0,
+                t,
+                fault,
+            });
         }
         if let Some(q) = q_hat {
             let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);
             push(Record::Sample {
+                tick: tick.0,
                 t,
                 error,
                 delta: [q.z, q.w],
@@ -384,7 +400,7 @@ mod app {
         });
 
         #[cfg(feature = "inject-overrun")]
-        if k == MOTOR_HZ {
+        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
             defmt::warn!("injecting an overrun at t = 1 s");
             cortex_m::asm::delay(3 * (TIMER_CLOCK_HZ / MOTOR_HZ));
         }
@@ -427,7 +443,7 @@ mod app {
             *cx.local.reported_fault = true;
             defmt::error!("safe state: {=str} (latched until reset)", f.as_str());
         }
-        *cx.local.supervisor_ticks += 1;
+        *cx.local.supervisor_ticks = cx.local.supervisor_ticks.wrapping_add(1);
         if cx.local.supervisor_ticks.is_multiple_of(SUPERVISOR_HZ) {
             let (pr, pm, px) = stats::PIEZO.take_window();
             let (mr, mm, mx) = stats::MOTOR.take_window();

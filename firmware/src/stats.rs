@@ -33,7 +33,10 @@ impl TaskStats {
         self.total.fetch_add(counts, Relaxed);
         self.max.fetch_max(counts, Relaxed);
         if missed {
-            self.misses.fetch_add(1, Relaxed);
+            // Saturating: a count that never wraps back to a small number.
+            let _ = self
+                .misses
+                .fetch_update(Relaxed, Relaxed, |m| Some(m.saturating_add(1)));
         }
     }
 

@@ -7,7 +7,9 @@ use flexarm_core::Fault;
 pub enum Record {
     /// A periodic sample of the motor loop.
     Sample {
-        /// Time since the trajectory started [s].
+        /// Motor periods since boot (`flexarm_core::time`): full resolution after any uptime.
+        tick: u64,
+        /// Time since the move started [s], from the integer tick difference.
         t: f32,
         /// Joint tracking errors θ − θ_d [rad].
         error: [f32; 2],
@@ -20,7 +22,9 @@ pub enum Record {
     },
     /// The controller latched a fault.
     Fault {
-        /// Time [s].
+        /// Motor periods since boot.
+        tick: u64,
+        /// Time since the move started [s].
         t: f32,
         /// The cause.
         fault: Fault,
@@ -36,13 +40,15 @@ pub type Queue = heapless::spsc::Queue<Record, CAPACITY>;
 pub fn print(r: &Record) {
     match *r {
         Record::Sample {
+            tick,
             t,
             error,
             delta,
             tau,
             v_a,
         } => defmt::info!(
-            "t={=f32} s err=({=f32},{=f32}) rad delta=({=f32},{=f32}) tau=({=f32},{=f32}) N*m V_a={=f32} V",
+            "tick={=u64} t={=f32} s err=({=f32},{=f32}) rad delta=({=f32},{=f32}) tau=({=f32},{=f32}) N*m V_a={=f32} V",
+            tick,
             t,
             error[0],
             error[1],
@@ -52,6 +58,11 @@ pub fn print(r: &Record) {
             tau[1],
             v_a
         ),
-        Record::Fault { t, fault } => defmt::error!("t={=f32} s FAULT: {=str}", t, fault.as_str()),
+        Record::Fault { tick, t, fault } => defmt::error!(
+            "tick={=u64} t={=f32} s FAULT: {=str}",
+            tick,
+            t,
+            fault.as_str()
+        ),
     }
 }
