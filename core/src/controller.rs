@@ -125,15 +125,18 @@ impl<T: Real> Controller<T> {
             observer_gain,
             PiezoPatch::paper(),
             PiezoGains::default(),
+            Limits::default(),
         )
     }
 
-    /// [`Self::paper`] with another patch and piezo-loop gains: the paper's arm, motor gains
-    /// and limits, the patch `patch` (its film map `k_s Δφ'` is the observer's) and the piezo
-    /// law `V_a = sat(−k_c V̇_f)` with `piezo_gains`. `observer_gain` must be designed for this
+    /// [`Self::paper`] with another patch, piezo-loop gains and limits: the paper's arm and
+    /// motor gains, the patch `patch` (its film map `k_s Δφ'` is the observer's), the piezo
+    /// law `V_a = sat(−k_c V̇_f)` with `piezo_gains`, and `limits` (torques, and the voltage the
+    /// board's piezo output stage can deliver). `observer_gain` must be designed for this
     /// patch's film map at `motor_period` [s] (`flexarm-sim firmware-params` does it for the
     /// firmware). A patch that is not on link 2, or a gain `k_c` [s] or filter corner [Hz] that
     /// is not finite and positive, latches [`Fault::InvalidConfig`].
+    #[allow(clippy::too_many_arguments)]
     pub fn with_patch(
         law: MotorLaw,
         trajectory: JointTrajectory<T>,
@@ -142,8 +145,8 @@ impl<T: Real> Controller<T> {
         observer_gain: Gain<T>,
         patch: PiezoPatch<T>,
         piezo_gains: PiezoGains<T>,
+        limits: Limits<T>,
     ) -> Self {
-        let limits = Limits::default();
         let theta0 = trajectory.sample(T::zero()).q;
         Self::new(
             MotorController {
@@ -289,7 +292,7 @@ impl<T: Real> Controller<T> {
         // One comparison rejects NaN, ±∞ and out-of-range samples; the cause is sorted out on
         // the (rare) fault path.
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
-        if !(v_f.abs() <= self.sensors.v_f_max) {
+        if !(v_f.abs() < self.sensors.v_f_max) {
             self.trip(if v_f.finite() {
                 Fault::OutOfRange
             } else {

@@ -27,6 +27,12 @@ pub enum Fault {
     InvalidConfig,
     /// The inertia matrix could not be factored (non-finite state).
     Singular,
+    /// The crystal or the PLL did not start, or the clock security system saw the crystal
+    /// stop: the chip runs on its internal oscillator, at which the loop rates are wrong.
+    Clock,
+    /// The brown-out reset is off in the option bytes: a sagging supply could run the chip
+    /// outside its specification with the amplifiers on.
+    BrownOutDisabled,
 }
 
 impl Fault {
@@ -42,6 +48,8 @@ impl Fault {
             Self::Amplifier => "amplifier fault",
             Self::InvalidConfig => "invalid configuration",
             Self::Singular => "inertia matrix not positive definite",
+            Self::Clock => "clock failure (crystal or PLL)",
+            Self::BrownOutDisabled => "brown-out reset disabled in the option bytes",
         }
     }
 }

@@ -42,7 +42,8 @@ pub struct SensorLimits<T> {
     /// Largest joint speed the arm can reach [rad/s]; an encoder moving farther than
     /// `speed_max × period` in one motor period has jumped.
     pub speed_max: T,
-    /// Largest film voltage magnitude [V] (the ADC's input range).
+    /// The film ADC's input range [V]: a reading must lie strictly inside `±v_f_max`; one on
+    /// the rail is saturated and refused.
     pub v_f_max: T,
 }
 
@@ -75,7 +76,7 @@ impl<T: Real> SensorLimits<T> {
             && y.theta.x <= self.theta_max.x
             && y.theta.y >= self.theta_min.y
             && y.theta.y <= self.theta_max.y
-            && y.v_f.abs() <= self.v_f_max;
+            && y.v_f.abs() < self.v_f_max;
         if !inside {
             return Err(
                 if y.theta.x.finite() && y.theta.y.finite() && y.v_f.finite() {
@@ -130,6 +131,53 @@ impl SafetyLatch {
                 self.trip(f);
                 None
             }
+        }
+    }
+}
+
+/// The amplifiers' fault line, debounced. Many amplifiers assert their fault output while
+/// disabled, and a PWM-noisy cable glitches it, so the line counts only while the amplifiers
+/// are enabled, after a settling time, and only when it stays asserted for `debounce`
+/// consecutive samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AmplifierMonitor {
+    /// Samples since the last enable (saturating).
+    enabled_for: u32,
+    /// Consecutive samples with the line asserted.
+    asserted_for: u32,
+    settle: u32,
+    debounce: u32,
+}
+
+impl AmplifierMonitor {
+    /// Ignores the line for `settle` samples after each enable; trips after `debounce ≥ 1`
+    /// consecutive asserted samples.
+    pub const fn new(settle: u32, debounce: u32) -> Self {
+        Self {
+            enabled_for: 0,
+            asserted_for: 0,
+            settle,
+            debounce: if debounce == 0 { 1 } else { debounce },
+        }
+    }
+
+    /// One sample: whether the amplifiers were enabled, and whether the fault line is
+    /// asserted. Returns [`Fault::Amplifier`] once the fault is confirmed.
+    pub fn update(&mut self, enabled: bool, asserted: bool) -> Result<(), Fault> {
+        if !enabled {
+            *self = Self::new(self.settle, self.debounce);
+            return Ok(());
+        }
+        self.enabled_for = self.enabled_for.saturating_add(1);
+        self.asserted_for = if asserted && self.enabled_for > self.settle {
+            self.asserted_for.saturating_add(1)
+        } else {
+            0
+        };
+        if self.asserted_for >= self.debounce {
+            Err(Fault::Amplifier)
+        } else {
+            Ok(())
         }
     }
 }

@@ -328,6 +328,7 @@ fn with_patch_is_paper_for_the_papers_patch_and_refuses_a_bad_patch_or_gain() {
                 k_c,
                 ..PiezoGains::default()
             },
+            Limits::default(),
         )
     };
     let paper = Controller::paper(
@@ -358,5 +359,82 @@ fn with_patch_is_paper_for_the_papers_patch_and_refuses_a_bad_patch_or_gain() {
     off.x_a = 0.3;
     for c in [build(off, 30.0), build(other, 0.0), build(other, f32::NAN)] {
         assert_eq!(c.fault(), Some(Fault::InvalidConfig));
+    }
+}
+
+#[test]
+fn a_railed_film_reading_is_out_of_range() {
+    // The ADC's full scale is ±10 V: a reading on the rail is saturated, not a measurement.
+    for (v, expect) in [(10.0, Fault::OutOfRange), (-10.0, Fault::OutOfRange)] {
+        inject(
+            |c| c.motor_step(0.05, Some(&y(0.0, 0.0, v))).command,
+            expect,
+        );
+        let mut c = controller();
+        assert_eq!(c.piezo_step(v), 0.0);
+        assert_eq!(c.fault(), Some(expect));
+    }
+    let mut c = controller();
+    c.piezo_step(9.99);
+    assert_eq!(c.fault(), None, "just inside the rail");
+}
+
+#[test]
+fn the_amplifier_fault_line_counts_only_while_enabled_settled_and_steady() {
+    use flexarm_core::supervisor::AmplifierMonitor;
+    let mut m = AmplifierMonitor::new(5, 3);
+    // Asserted while disabled (many amplifiers do): ignored, however long.
+    for _ in 0..100 {
+        assert_eq!(m.update(false, true), Ok(()));
+    }
+    // Enabled: the first 5 samples settle.
+    for _ in 0..5 {
+        assert_eq!(m.update(true, true), Ok(()));
+    }
+    // Glitches shorter than 3 samples never trip.
+    for _ in 0..20 {
+        assert_eq!(m.update(true, true), Ok(()));
+        assert_eq!(m.update(true, true), Ok(()));
+        assert_eq!(m.update(true, false), Ok(()));
+    }
+    // Three in a row do.
+    assert_eq!(m.update(true, true), Ok(()));
+    assert_eq!(m.update(true, true), Ok(()));
+    assert_eq!(m.update(true, true), Err(Fault::Amplifier));
+    // Disabling resets it, and the settling starts again.
+    assert_eq!(m.update(false, true), Ok(()));
+    for _ in 0..5 {
+        assert_eq!(m.update(true, true), Ok(()));
+    }
+    assert_eq!(m.update(true, true), Ok(()));
+    assert_eq!(m.update(true, true), Ok(()));
+    assert_eq!(m.update(true, true), Err(Fault::Amplifier));
+    // A debounce of 0 means 1.
+    assert_eq!(
+        AmplifierMonitor::new(0, 0).update(true, true),
+        Err(Fault::Amplifier)
+    );
+}
+
+#[test]
+fn every_fault_has_its_own_stable_name() {
+    let all = [
+        Fault::NonFinite,
+        Fault::OutOfRange,
+        Fault::Stale,
+        Fault::EncoderJump,
+        Fault::Watchdog,
+        Fault::Overrun,
+        Fault::Amplifier,
+        Fault::InvalidConfig,
+        Fault::Singular,
+        Fault::Clock,
+        Fault::BrownOutDisabled,
+    ];
+    for (i, a) in all.iter().enumerate() {
+        assert_eq!(*a as u8, i as u8 + 1, "codes start at 1, in order");
+        for b in &all[i + 1..] {
+            assert_ne!(a.as_str(), b.as_str());
+        }
     }
 }

@@ -10,6 +10,7 @@
 
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
+use flexarm_core::params::Limits;
 use flexarm_core::time::Ticks;
 
 use crate::generated;
@@ -54,6 +55,20 @@ pub fn patch() -> PiezoPatch<f32> {
     }
 }
 
+/// The controller's limits: the core's torque limits, and the piezo voltage the board's
+/// output stage can deliver (±175 V on the hardware board, whose DAC buffer does not reach its
+/// rails; the QEMU board's ideal output keeps the core's ±200 V).
+pub fn limits() -> Limits<f32> {
+    #[cfg(feature = "hw")]
+    let v_a_max = crate::board::hw::PIEZO_V_MAX;
+    #[cfg(not(feature = "hw"))]
+    let v_a_max = Limits::<f32>::default().v_a_max;
+    Limits {
+        v_a_max,
+        ..Limits::default()
+    }
+}
+
 /// The piezo loop's gains: `k_c` [s] from `firmware/piezo.toml`, the core's filter corner.
 pub fn piezo_gains() -> PiezoGains<f32> {
     PiezoGains {
@@ -70,6 +85,11 @@ pub const START_TICK: Ticks = Ticks(if cfg!(feature = "start-before-wrap") {
 } else {
     0
 });
+
+/// Motor periods the amplifier fault line is ignored after each enable (10 ms).
+pub const AMPLIFIER_SETTLE: u32 = MOTOR_HZ / 100;
+/// Consecutive motor periods the fault line must stay asserted (3 ms on hardware).
+pub const AMPLIFIER_DEBOUNCE: u32 = 3;
 
 /// Motor steps between two telemetry samples.
 pub const TELEMETRY_EVERY: u32 = MOTOR_HZ / 10;

@@ -6,7 +6,7 @@
 //! |---|---|---|---|
 //! | `piezo_loop` | TIM2 (10 kHz; 1 kHz under QEMU) | 3 | film voltage → `V_a = sat(−k_c V̇_f)` → piezo amplifier |
 //! | `motor_loop` | TIM3 (1 kHz; 100 Hz under QEMU) | 2 | encoders + film → observer → Eq. 7/16 → motor amplifiers |
-//! | `supervisor` | TIM4 (10 Hz) | 1 | loop liveness, amplifier fault line, watchdog, enable line, load report |
+//! | `supervisor` | TIM4 (10 Hz) | 1 | liveness of both loops, watchdog, enable line, load report |
 //! | `idle` | — | 0 | telemetry: drains the queue to defmt |
 //!
 //! The control math is `flexarm-core`'s [`Controller`]: checks, observer, laws and the safety
@@ -17,16 +17,17 @@
 mod board;
 mod clock;
 mod config;
+mod emergency;
 // Generated from firmware/piezo.toml; each board uses one of its two observer gain tables.
 #[allow(dead_code)]
 mod generated;
 mod stats;
 mod telemetry;
 
+#[cfg(feature = "hw")]
+use defmt_rtt as _;
 #[cfg(feature = "qemu")]
 use defmt_semihosting as _;
-#[cfg(feature = "hw")]
-use {defmt_rtt as _, panic_probe as _};
 
 #[cfg(not(any(feature = "qemu", feature = "hw")))]
 compile_error!("select a board: feature `hw` (default) or `qemu` (with --no-default-features)");
@@ -34,17 +35,6 @@ compile_error!("select a board: feature `hw` (default) or `qemu` (with --no-defa
 compile_error!(
     "features `qemu` and `hw` exclude each other: build `qemu` with --no-default-features"
 );
-
-/// Under QEMU a panic is a failed run: log it and exit non-zero.
-#[cfg(feature = "qemu")]
-#[panic_handler]
-fn panic(info: &core::panic::PanicInfo) -> ! {
-    defmt::error!("panic: {}", defmt::Display2Format(info));
-    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
-    loop {
-        cortex_m::asm::bkpt();
-    }
-}
 
 use flexarm_core::controller::Controller;
 
@@ -55,6 +45,7 @@ mod app {
     use flexarm_core::control::motor::MotorLaw;
     use flexarm_core::observer::Measurement;
     use flexarm_core::observer_gains::gain;
+    use flexarm_core::supervisor::AmplifierMonitor;
     use flexarm_core::time::{MoveClock, Ticks};
     use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
     use flexarm_core::{Fault, Vector2};
@@ -76,6 +67,8 @@ mod app {
 
     /// Motor steps done, for the supervisor's liveness check.
     static MOTOR_HEARTBEAT: AtomicU32 = AtomicU32::new(0);
+    /// Piezo steps done, for the supervisor's liveness check.
+    static PIEZO_HEARTBEAT: AtomicU32 = AtomicU32::new(0);
 
     /// What the QEMU run checks at its end.
     #[derive(Default)]
@@ -112,6 +105,9 @@ mod app {
         reported_fault: bool,
         telemetry_drops: u32,
         fault_sent: bool,
+        amplifier: AmplifierMonitor,
+        enabled: bool,
+        last_piezo_beat: u32,
         #[cfg(feature = "hw")]
         iwdg: stm32f4::stm32f405::IWDG,
     }
@@ -135,9 +131,11 @@ mod app {
 
     #[init(local = [queue: telemetry::Queue = telemetry::Queue::new()])]
     fn init(cx: init::Context) -> (Shared, Local) {
+        // Before anything else (the crystal wait included): amplifiers disabled, commands safe.
+        crate::emergency::force_safe_outputs();
         let dp = cx.device;
         #[cfg(feature = "hw")]
-        let reset_by_watchdog = crate::board::hw::clocks_and_reset_cause(&dp.RCC, &dp.FLASH);
+        let startup = crate::board::hw::clocks_and_reset_cause(&dp.RCC, &dp.FLASH);
 
         // Timers: TIM2 piezo, TIM3 motor, TIM4 supervisor, TIM5 free-running clock.
         dp.RCC.apb1enr().modify(|_, w| {
@@ -174,10 +172,20 @@ mod app {
             gain(config::OBSERVER_GAIN),
             config::patch(),
             config::piezo_gains(),
+            config::limits(),
         );
+        // The first cause is kept: a clock failure explains a watchdog reset, not the reverse.
         #[cfg(feature = "hw")]
-        if reset_by_watchdog {
-            ctrl.trip(Fault::Watchdog);
+        {
+            if startup.clocks.is_err() {
+                ctrl.trip(Fault::Clock);
+            }
+            if !startup.brown_out_reset_on {
+                ctrl.trip(Fault::BrownOutDisabled);
+            }
+            if startup.reset_by_watchdog {
+                ctrl.trip(Fault::Watchdog);
+            }
         }
 
         #[cfg(feature = "qemu")]
@@ -251,6 +259,12 @@ mod app {
                 reported_fault: false,
                 telemetry_drops: 0,
                 fault_sent: false,
+                amplifier: AmplifierMonitor::new(
+                    config::AMPLIFIER_SETTLE,
+                    config::AMPLIFIER_DEBOUNCE,
+                ),
+                enabled: false,
+                last_piezo_beat: 0,
                 #[cfg(feature = "hw")]
                 iwdg,
             },
@@ -302,6 +316,7 @@ mod app {
             b.set_piezo(v_a);
             b.tick();
         });
+        PIEZO_HEARTBEAT.fetch_add(1, Relaxed);
         let missed = cx.local.tim2.sr().read().uif().bit_is_set();
         stats::PIEZO.record(clock::now().wrapping_sub(start), missed);
         if missed {
@@ -311,7 +326,7 @@ mod app {
     }
 
     /// Motor loop: encoders and film in, observer, Eq. 7, torques out.
-    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, telemetry_drops, fault_sent], shared = [ctrl, board, check])]
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, telemetry_drops, fault_sent, amplifier, enabled], shared = [ctrl, board, check])]
     fn motor_loop(mut cx: motor_loop::Context) {
         let start = clock::now();
         cx.local.tim3.sr().write(|w| w.uif().clear_bit());
@@ -330,9 +345,11 @@ mod app {
             0 => config::TELEMETRY_EVERY - 1,
             n => n - 1,
         };
+        // The fault line counts only while the amplifiers are enabled (debounced, after settling).
+        let amp = cx.local.amplifier.update(*cx.local.enabled, amp_fault);
         let (report, fault, q_hat) = cx.shared.ctrl.lock(|c| {
-            if amp_fault {
-                c.trip(Fault::Amplifier);
+            if let Err(f) = amp {
+                c.trip(f);
             }
             (
                 c.motor_step(t, Some(&Measurement { theta, v_f })),
@@ -345,6 +362,7 @@ mod app {
             b.set_torques(cmd.tau);
             b.set_enable(cmd.enable);
         });
+        *cx.local.enabled = cmd.enable;
         MOTOR_HEARTBEAT.fetch_add(1, Relaxed);
 
         // Telemetry: periodic samples; the fault event the moment the latch is seen.
@@ -399,6 +417,20 @@ mod app {
             }
         });
 
+        #[cfg(feature = "inject-panic")]
+        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
+            panic!("injected panic in the motor loop at t = 1 s");
+        }
+        #[cfg(feature = "inject-hardfault")]
+        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
+            defmt::warn!("injecting an undefined instruction in the motor loop at t = 1 s");
+            cortex_m::asm::udf();
+        }
+        #[cfg(feature = "inject-piezo-stall")]
+        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
+            defmt::warn!("injecting a stalled piezo loop (TIM2 masked) at t = 1 s");
+            cortex_m::peripheral::NVIC::mask(stm32f4::stm32f405::Interrupt::TIM2);
+        }
         #[cfg(feature = "inject-overrun")]
         if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
             defmt::warn!("injecting an overrun at t = 1 s");
@@ -413,28 +445,26 @@ mod app {
         let _ = t;
     }
 
-    /// Supervisor: loop liveness, amplifier fault line, watchdog, enable line, fault report,
+    /// Supervisor: liveness of both loops, watchdog, enable line, fault report,
     /// load report once a second.
-    #[task(binds = TIM4, priority = 1, local = [tim4, last_heartbeat, supervisor_ticks, reported_fault, #[cfg(feature = "hw")] iwdg], shared = [ctrl, board])]
+    #[task(binds = TIM4, priority = 1, local = [tim4, last_heartbeat, last_piezo_beat, supervisor_ticks, reported_fault, #[cfg(feature = "hw")] iwdg], shared = [ctrl, board])]
     fn supervisor(mut cx: supervisor::Context) {
         cx.local.tim4.sr().write(|w| w.uif().clear_bit());
-        let beat = MOTOR_HEARTBEAT.load(Relaxed);
-        let alive = beat != *cx.local.last_heartbeat;
-        *cx.local.last_heartbeat = beat;
-        let amp_fault = cx.shared.board.lock(|b| b.amplifier_fault());
+        // Both control loops must have run since the last check.
+        let (motor, piezo) = (MOTOR_HEARTBEAT.load(Relaxed), PIEZO_HEARTBEAT.load(Relaxed));
+        let alive = motor != *cx.local.last_heartbeat && piezo != *cx.local.last_piezo_beat;
+        *cx.local.last_heartbeat = motor;
+        *cx.local.last_piezo_beat = piezo;
         let fault = cx.shared.ctrl.lock(|c| {
             if !alive {
                 c.trip(Fault::Overrun);
-            }
-            if amp_fault {
-                c.trip(Fault::Amplifier);
             }
             c.fault()
         });
         if fault.is_some() {
             cx.shared.board.lock(safe_outputs);
         }
-        // Feed the watchdog only while the motor loop runs: a stalled loop resets the chip.
+        // Feed the watchdog only while both loops run: a stalled loop resets the chip.
         #[cfg(feature = "hw")]
         if alive {
             crate::board::hw::feed_watchdog(cx.local.iwdg);

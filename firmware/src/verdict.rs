@@ -9,7 +9,7 @@ use crate::stats;
 /// The fault an injection build expects; `None` for the plain run.
 const EXPECTED_FAULT: Option<Fault> = if cfg!(feature = "inject-nan") {
     Some(Fault::NonFinite)
-} else if cfg!(feature = "inject-overrun") {
+} else if cfg!(feature = "inject-overrun") || cfg!(feature = "inject-piezo-stall") {
     Some(Fault::Overrun)
 } else {
     None

@@ -7,10 +7,10 @@
 //! | encoder 1 A/B | PA8 / PA9 | TIM1 CH1/CH2, encoder mode (AF1) | 16384 counts/rev |
 //! | encoder 2 A/B | PC6 / PC7 | TIM8 CH1/CH2, encoder mode (AF3) | 16384 counts/rev |
 //! | film voltage | PA0 | ADC1 IN0, 12 bit | 0–3.3 V ↔ −10…+10 V at the film |
-//! | piezo command | PA4 | DAC channel 1, 12 bit | 0–3.3 V ↔ −200…+200 V at the amplifier |
+//! | piezo command | PA4 | DAC channel 1, 12 bit, output buffer on | 0–3.3 V ↔ −200…+200 V at the amplifier; the buffer swings 0.2–3.1 V, so ±175 V |
 //! | motor 1 torque | PB14 | TIM12 CH1 PWM, 20 kHz (AF9) | duty 0–100 % ↔ −τ_max…+τ_max |
 //! | motor 2 torque | PB15 | TIM12 CH2 PWM, 20 kHz (AF9) | duty 0–100 % ↔ −τ_max…+τ_max |
-//! | amplifier enable | PB12 | GPIO output, active high | all three amplifiers |
+//! | amplifier enable | PB12 | GPIO output, active high, external 10 kΩ pull-down | all three amplifiers |
 //! | amplifier fault | PB13 | GPIO input, pull-up, active low | wired-OR of the three |
 //!
 //! Register values follow RM0090 (STM32F405 reference manual); each write says what it sets.
@@ -25,6 +25,53 @@ use flexarm_core::params::Limits;
 use stm32f4::stm32f405::{ADC1, DAC, FLASH, GPIOA, GPIOB, GPIOC, IWDG, RCC, TIM1, TIM8, TIM12};
 
 use super::Board;
+
+/// The enable line's pin number on port B.
+pub const ENABLE_PIN: u8 = 12;
+/// DAC code of a 0 V piezo command, at boot and in the safe state: codes `DAC_MID ± 2047` span
+/// the amplifier's input range symmetrically.
+pub const DAC_MID: u16 = 2048;
+
+/// The crystal (HSE) on this board [Hz]. The PLL is derived from it and checked at compile time.
+pub const HSE_HZ: u32 = 8_000_000;
+/// `true` for an oscillator module driving OSC_IN (HSE bypass) instead of a crystal.
+pub const HSE_BYPASS: bool = false;
+/// PLL input after the /M divider [Hz]: 2 MHz, the value RM0090 recommends against jitter.
+const PLL_IN_HZ: u32 = 2_000_000;
+/// PLL /M, ×N, /P, /Q: VCO 336 MHz, SYSCLK 168 MHz, 48 MHz for USB.
+const PLL_M: u32 = HSE_HZ / PLL_IN_HZ;
+const PLL_N: u32 = 336_000_000 / PLL_IN_HZ;
+const PLL_P: u32 = 2;
+const PLL_Q: u32 = 7;
+const _: () = {
+    assert!(
+        HSE_HZ.is_multiple_of(PLL_IN_HZ),
+        "HSE_HZ must be a multiple of 2 MHz"
+    );
+    assert!(
+        PLL_M >= 2 && PLL_M <= 63,
+        "PLL /M out of range (RM0090 6.3.2)"
+    );
+    assert!(PLL_N >= 50 && PLL_N <= 432, "PLL ×N out of range");
+    assert!(
+        HSE_HZ >= 4_000_000 && HSE_HZ <= 26_000_000,
+        "HSE must be 4–26 MHz"
+    );
+    assert!(PLL_IN_HZ * PLL_N / PLL_P == 168_000_000);
+    assert!(PLL_IN_HZ * PLL_N / PLL_Q == 48_000_000);
+};
+/// Polls of a ready flag before giving up: at the 16 MHz internal oscillator about 20 ms,
+/// several times the crystal's and the PLL's start-up time (datasheet: 2 ms typical).
+const READY_POLLS: u32 = 100_000;
+/// Polls of the ADC's end of conversion: 84 + 12 ADC clocks at 21 MHz is 4.6 µs, about 100
+/// polls at 168 MHz; 2000 is a stuck converter.
+const ADC_POLLS: u32 = 2_000;
+
+/// The piezo amplifier's input range: 0–3.3 V at its input is −200…+200 V at the patch.
+const PIEZO_FULL_SCALE_V: f32 = 200.0;
+/// What the DAC's output buffer can reach (0.2 V to VDDA − 0.2 V, datasheet), in volts at the
+/// patch: (3.1 − 1.65) / 1.65 × 200 V = 175.8 V, rounded down. The controller's limit.
+pub const PIEZO_V_MAX: f32 = 175.0;
 
 /// Encoder counts per revolution (4096-line encoders, ×4 quadrature).
 const COUNTS_PER_REV: f32 = 16384.0;
@@ -42,23 +89,62 @@ macro_rules! set_bits {
     };
 }
 
-/// Sets the system clock to 168 MHz (HSE 8 MHz, PLL M = 8, N = 336, P = 2, Q = 7; AHB 168 MHz,
-/// APB1 42 MHz with its timers at 84 MHz, APB2 84 MHz; 5 flash wait states) and returns whether
-/// the last reset came from the independent watchdog (the flag is then cleared).
-pub fn clocks_and_reset_cause(rcc: &RCC, flash: &FLASH) -> bool {
-    let by_watchdog = rcc.csr().read().wdgrstf().bit_is_set();
+/// Why the clocks could not be brought up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClockError {
+    /// The crystal (or oscillator module) never became ready.
+    Hse,
+    /// The PLL never locked.
+    Pll,
+}
+
+/// How the chip came up.
+pub struct Startup {
+    /// The last reset came from the independent watchdog (the flag is then cleared).
+    pub reset_by_watchdog: bool,
+    /// `Err` if the chip stays on its 16 MHz internal oscillator: the loop rates are then
+    /// wrong, and the amplifiers must never be enabled.
+    pub clocks: Result<(), ClockError>,
+    /// The brown-out reset level in the option bytes is not off (`BOR_LEV ≠ 0b11`).
+    pub brown_out_reset_on: bool,
+}
+
+/// Sets the system clock to 168 MHz from the crystal (`HSE_HZ`; PLL /M ×N /P /Q derived above;
+/// AHB 168 MHz, APB1 42 MHz with its timers at 84 MHz, APB2 84 MHz; 5 flash wait states), with
+/// the clock security system on, and reads the reset cause and the brown-out setting. Every wait
+/// is bounded: a crystal or PLL that does not start leaves the chip on the internal oscillator
+/// and reports it.
+pub fn clocks_and_reset_cause(rcc: &RCC, flash: &FLASH) -> Startup {
+    let reset_by_watchdog = rcc.csr().read().wdgrstf().bit_is_set();
     rcc.csr().modify(|_, w| w.rmvf().set_bit());
-    rcc.cr().modify(|_, w| w.hseon().set_bit());
-    while rcc.cr().read().hserdy().bit_is_clear() {}
-    // PLLCFGR: PLLM = 8 (bits 0–5), PLLN = 336 (6–14), PLLP = /2 (16–17 = 0), PLLSRC = HSE (22),
-    // PLLQ = 7 (24–27).
+    // FLASH_OPTCR BOR_LEV (bits 2–3): 0b11 is "off".
+    let brown_out_reset_on = (flash.optcr().read().bits() >> 2) & 0b11 != 0b11;
+    let ready = |done: &dyn Fn() -> bool| (0..READY_POLLS).any(|_| done());
+    rcc.cr()
+        .modify(|_, w| w.hsebyp().bit(HSE_BYPASS).hseon().set_bit());
+    if !ready(&|| rcc.cr().read().hserdy().bit_is_set()) {
+        rcc.cr().modify(|_, w| w.hseon().clear_bit());
+        return Startup {
+            reset_by_watchdog,
+            clocks: Err(ClockError::Hse),
+            brown_out_reset_on,
+        };
+    }
+    // PLLCFGR: PLLM (bits 0–5), PLLN (6–14), PLLP = /2 (16–17 = 0), PLLSRC = HSE (22),
+    // PLLQ (24–27).
     set_bits!(
         rcc.pllcfgr(),
         0x0F43_7FFF,
-        8 | (336 << 6) | (1 << 22) | (7 << 24)
+        PLL_M | (PLL_N << 6) | ((PLL_P / 2 - 1) << 16) | (1 << 22) | (PLL_Q << 24)
     );
     rcc.cr().modify(|_, w| w.pllon().set_bit());
-    while rcc.cr().read().pllrdy().bit_is_clear() {}
+    if !ready(&|| rcc.cr().read().pllrdy().bit_is_set()) {
+        return Startup {
+            reset_by_watchdog,
+            clocks: Err(ClockError::Pll),
+            brown_out_reset_on,
+        };
+    }
     // FLASH ACR: LATENCY = 5 WS, prefetch, instruction and data caches on.
     set_bits!(
         flash.acr(),
@@ -69,16 +155,32 @@ pub fn clocks_and_reset_cause(rcc: &RCC, flash: &FLASH) -> bool {
     set_bits!(rcc.cfgr(), 0x0000_FCF0, (0b101 << 10) | (0b100 << 13));
     // SW = PLL (bits 0–1 = 0b10), wait for SWS = PLL (bits 2–3).
     set_bits!(rcc.cfgr(), 0x3, 0b10);
-    while (rcc.cfgr().read().bits() >> 2) & 0x3 != 0b10 {}
-    by_watchdog
+    if !ready(&|| (rcc.cfgr().read().bits() >> 2) & 0x3 == 0b10) {
+        return Startup {
+            reset_by_watchdog,
+            clocks: Err(ClockError::Pll),
+            brown_out_reset_on,
+        };
+    }
+    // The clock security system: if the crystal stops, the chip falls back to the internal
+    // oscillator and raises the NMI (`crate::emergency`).
+    rcc.cr().modify(|_, w| w.csson().set_bit());
+    Startup {
+        reset_by_watchdog,
+        clocks: Ok(()),
+        brown_out_reset_on,
+    }
 }
 
-/// Starts the independent watchdog: LSI 32 kHz / 32, reload 500, a timeout of 0.5 s.
+/// Starts the independent watchdog: LSI 32 kHz / 32, reload 500, a timeout of 0.5 s (0.34 s
+/// to 0.94 s across the LSI's 17–47 kHz). The counter starts at 0xFFF (4 s), so the reload is
+/// written once right after the start: the first timeout is the configured one too.
 pub fn start_watchdog(iwdg: IWDG) -> IWDG {
     iwdg.kr().write(|w| w.key().unlock()); // unlock PR and RLR
     iwdg.pr().write(|w| w.pr().set(0b011)); // /32
     iwdg.rlr().write(|w| w.rl().set(500));
     iwdg.kr().write(|w| w.key().start()); // start
+    iwdg.kr().write(|w| w.key().feed()); // load RLR now, not 0xFFF
     iwdg
 }
 
@@ -140,7 +242,6 @@ pub struct HwBoard {
     raw: [u16; 2],
     counts: [i32; 2],
     tau_max: Vector2<f32>,
-    v_a_max: f32,
     pwm_period: u32,
 }
 
@@ -168,6 +269,26 @@ impl HwBoard {
             1 | (1 << 1) | (1 << 8)
         );
 
+        // Motor PWM on TIM12, configured completely (50 % = zero torque, an update event loads
+        // the preloaded values) before its pins are handed to it below.
+        let pwm_period = TIM12_CLOCK_HZ / PWM_HZ;
+        set_bits!(tim12.arr(), 0xFFFF, pwm_period - 1);
+        set_bits!(
+            tim12.ccmr1_output(),
+            0x7878,
+            (0b110 << 4) | (1 << 3) | (0b110 << 12) | (1 << 11)
+        );
+        set_bits!(tim12.ccr1(), 0xFFFF, pwm_period / 2);
+        set_bits!(tim12.ccr2(), 0xFFFF, pwm_period / 2);
+        tim12.egr().write(|w| w.ug().set_bit()); // load ARR, CCR1, CCR2 from their preloads
+        set_bits!(tim12.ccer(), 0x11, 0x11);
+        set_bits!(tim12.cr1(), 0x81, 0x81);
+
+        // DAC channel 1: mid-scale (0 V at the piezo) written before the channel is enabled,
+        // output buffer on (its swing is what limits the voltage: docs/firmware.md).
+        set_bits!(dac.dhr12r1(), 0xFFF, u32::from(DAC_MID));
+        set_bits!(dac.cr(), 0x3, 0x1);
+
         // GPIOA: PA0 analog (ADC), PA4 analog (DAC), PA8/PA9 AF1 (TIM1).
         set_bits!(
             gpioa.moder(),
@@ -178,12 +299,13 @@ impl HwBoard {
         // GPIOC: PC6/PC7 AF3 (TIM8).
         set_bits!(gpioc.moder(), (3 << 12) | (3 << 14), (2 << 12) | (2 << 14));
         set_bits!(gpioc.afrl(), 0xFF << 24, 0x33 << 24);
-        // GPIOB: PB12 output (enable, low first), PB13 input with pull-up, PB14/PB15 AF9 (TIM12).
+        // GPIOB: PB12 output (enable, already low: `emergency::force_safe_outputs` in `init`),
+        // PB13 input with pull-up, PB14/PB15 AF9 (TIM12, already running at 50 %).
         // SAFETY: BSRR bit 28 resets PB12.
         gpiob.bsrr().write(|w| unsafe { w.bits(1 << 28) });
+        set_bits!(gpiob.afrh(), 0xFF << 24, 0x99 << 24);
         set_bits!(gpiob.moder(), 0xFF << 24, (1 << 24) | (2 << 28) | (2 << 30));
         set_bits!(gpiob.pupdr(), 3 << 26, 1 << 26);
-        set_bits!(gpiob.afrh(), 0xFF << 24, 0x99 << 24);
 
         // Encoders: SMCR SMS = 0b011 (count on both edges of both inputs), CCMR1 CC1S = CC2S =
         // 0b01 (TI1, TI2), input filter 0b0011, ARR = 0xFFFF, counter on.
@@ -202,26 +324,14 @@ impl HwBoard {
         encoder!(tim1);
         encoder!(tim8);
 
-        // Motor PWM on TIM12: PWM mode 1 with preload on CH1/CH2, 50 % (zero torque), on.
-        let pwm_period = TIM12_CLOCK_HZ / PWM_HZ;
-        set_bits!(tim12.arr(), 0xFFFF, pwm_period - 1);
-        set_bits!(
-            tim12.ccmr1_output(),
-            0x7878,
-            (0b110 << 4) | (1 << 3) | (0b110 << 12) | (1 << 11)
-        );
-        set_bits!(tim12.ccr1(), 0xFFFF, pwm_period / 2);
-        set_bits!(tim12.ccr2(), 0xFFFF, pwm_period / 2);
-        set_bits!(tim12.ccer(), 0x11, 0x11);
-        set_bits!(tim12.cr1(), 0x81, 0x81);
-
-        // ADC1: 12 bit, IN0 first in the sequence, 84-cycle sampling, on.
+        // ADC common clock: ADCPRE = /4 (ADC_CCR bits 16–17 = 0b01), 84 MHz / 4 = 21 MHz, within
+        // the 36 MHz maximum. ADC1: 12 bit, IN0 first in the sequence, 84-cycle sampling, on.
+        // SAFETY: ADC_CCR is shared by the three ADCs, of which this board uses ADC1 only.
+        let common = unsafe { &*stm32f4::stm32f405::ADC_COMMON::ptr() };
+        set_bits!(common.ccr(), 0b11 << 16, 0b01 << 16);
         set_bits!(adc.sqr3(), 0x1F, 0);
         set_bits!(adc.smpr2(), 0x7, 0b100);
         set_bits!(adc.cr2(), 1, 1);
-        // DAC channel 1: output buffer on, enabled, mid-scale (0 V at the piezo).
-        set_bits!(dac.cr(), 0x3, 0x1);
-        set_bits!(dac.dhr12r1(), 0xFFF, 2048);
 
         let limits = Limits::<f32>::default();
         let raw = [
@@ -239,7 +349,6 @@ impl HwBoard {
             raw,
             counts: [0; 2],
             tau_max: limits.tau_max,
-            v_a_max: limits.v_a_max,
             pwm_period,
         }
     }
@@ -271,9 +380,14 @@ impl Board for HwBoard {
         Vector2::new(self.counts[0] as f32, self.counts[1] as f32) * (TAU / COUNTS_PER_REV)
     }
 
+    /// NaN if the conversion does not end within `ADC_POLLS` (the controller then latches
+    /// `NonFinite` and commands the safe state).
     fn film_voltage(&mut self) -> f32 {
         set_bits!(self.adc.cr2(), 1 << 30, 1 << 30); // SWSTART
-        while self.adc.sr().read().bits() & (1 << 1) == 0 {} // EOC
+        let eoc = (0..ADC_POLLS).any(|_| self.adc.sr().read().bits() & (1 << 1) != 0);
+        if !eoc {
+            return f32::NAN;
+        }
         let code = (self.adc.dr().read().bits() & 0xFFF) as f32;
         (code / 4095.0 * 2.0 - 1.0) * FILM_RANGE
     }
@@ -289,9 +403,10 @@ impl Board for HwBoard {
         let x = if v_a.is_nan() {
             0.0
         } else {
-            (v_a / self.v_a_max).clamp(-1.0, 1.0)
+            (v_a / PIEZO_FULL_SCALE_V).clamp(-1.0, 1.0)
         };
-        let code = ((x + 1.0) * 0.5 * 4095.0) as u32;
+        // DAC_MID ± 2047: 0 V is exactly mid-scale, as at boot and in the safe state.
+        let code = (f32::from(DAC_MID) + x * 2047.0 + 0.5) as u32;
         set_bits!(self.dac.dhr12r1(), 0xFFF, code);
     }
 

@@ -3,12 +3,88 @@
 //! in-memory `embedded-hal` pins, so the same pin logic runs as on hardware.
 
 use core::convert::Infallible;
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
 
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use flexarm_core::Vector2;
 use flexarm_core::simarm::SimArm;
 
 use super::Board;
+
+/// The board's outputs as last written, readable from any context: the emergency handlers
+/// force and read them (`crate::emergency`), the injection runs judge them.
+pub struct OutputRecord {
+    enable: AtomicBool,
+    was_enabled: AtomicBool,
+    tau: [AtomicU32; 2],
+    v_a: AtomicU32,
+}
+
+/// A copy of the [`OutputRecord`].
+#[derive(Clone, Copy, Debug)]
+pub struct Outputs {
+    /// Amplifier enable line.
+    pub enable: bool,
+    /// Whether the enable line was ever high.
+    pub was_enabled: bool,
+    /// Motor torque commands [N·m].
+    pub tau: [f32; 2],
+    /// Piezo command [V].
+    pub v_a: f32,
+}
+
+impl Outputs {
+    /// Amplifiers off, zero torque, zero voltage.
+    pub fn is_safe(&self) -> bool {
+        !self.enable && self.tau == [0.0; 2] && self.v_a == 0.0
+    }
+}
+
+impl OutputRecord {
+    const fn new() -> Self {
+        Self {
+            enable: AtomicBool::new(false),
+            was_enabled: AtomicBool::new(false),
+            tau: [AtomicU32::new(0), AtomicU32::new(0)],
+            v_a: AtomicU32::new(0),
+        }
+    }
+
+    fn set_enable(&self, on: bool) {
+        self.enable.store(on, Relaxed);
+        if on {
+            self.was_enabled.store(true, Relaxed);
+        }
+    }
+
+    fn set_torques(&self, tau: Vector2<f32>) {
+        self.tau[0].store(tau.x.to_bits(), Relaxed);
+        self.tau[1].store(tau.y.to_bits(), Relaxed);
+    }
+
+    /// The safe state, written as the hardware board's emergency path writes it: enable first.
+    pub fn force_safe(&self) {
+        self.enable.store(false, Relaxed);
+        self.set_torques(Vector2::zeros());
+        self.v_a.store(0, Relaxed);
+    }
+
+    /// The outputs now.
+    pub fn snapshot(&self) -> Outputs {
+        Outputs {
+            enable: self.enable.load(Relaxed),
+            was_enabled: self.was_enabled.load(Relaxed),
+            tau: [
+                f32::from_bits(self.tau[0].load(Relaxed)),
+                f32::from_bits(self.tau[1].load(Relaxed)),
+            ],
+            v_a: f32::from_bits(self.v_a.load(Relaxed)),
+        }
+    }
+}
+
+/// The QEMU board's outputs.
+pub static OUTPUTS: OutputRecord = OutputRecord::new();
 
 /// A pin that lives in memory.
 #[derive(Default)]
@@ -72,9 +148,11 @@ impl Board for SimBoard {
         self.arm.film_voltage()
     }
     fn set_torques(&mut self, tau: Vector2<f32>) {
+        OUTPUTS.set_torques(tau);
         self.arm.set_torques(tau);
     }
     fn set_piezo(&mut self, v_a: f32) {
+        OUTPUTS.v_a.store(v_a.to_bits(), Relaxed);
         self.arm.set_piezo(v_a);
     }
     fn set_enable(&mut self, on: bool) {
@@ -84,6 +162,7 @@ impl Board for SimBoard {
             self.enable.set_low()
         };
         let Ok(level) = self.enable.is_high();
+        OUTPUTS.set_enable(level);
         self.arm.set_enable(level);
     }
     fn amplifier_fault(&mut self) -> bool {

@@ -1,0 +1,137 @@
+//! The last line of defence: what runs when the firmware itself fails.
+//!
+//! A panic, a HardFault, a non-maskable interrupt (the clock security system's, when the crystal
+//! stops) and any interrupt nobody handles all end here. Each handler first masks interrupts (so
+//! no control task can run again and re-enable anything), then forces the safe outputs through
+//! [`force_safe_outputs`], a few register writes with no lock, no RAM state and no call into the
+//! controller, and only then logs. It then stops: on the hardware board the watchdog, no longer
+//! fed, resets the chip within its timeout, and the firmware boots with the amplifiers disabled
+//! and [`flexarm_core::Fault::Watchdog`] latched; under QEMU it exits through semihosting.
+//!
+//! `init` calls [`force_safe_outputs`] before anything else too, so the enable line is driven
+//! low within microseconds of every reset (an external pull-down holds it there before that:
+//! `docs/firmware.md`). `scripts/fw-elf-check` checks in the built hardware ELF that every
+//! handler and `init` call it first.
+
+use core::sync::atomic::{Ordering::SeqCst, compiler_fence};
+
+/// Masks interrupts and forces the safe outputs: amplifiers disabled, both motor commands at
+/// 50 % duty (zero torque), the piezo command at mid-scale (0 V).
+#[inline(always)]
+pub fn stop_outputs() {
+    cortex_m::interrupt::disable();
+    compiler_fence(SeqCst);
+    force_safe_outputs();
+}
+
+/// The safe outputs of the hardware board, written to the registers directly (RM0090).
+#[cfg(feature = "hw")]
+#[inline(never)]
+pub fn force_safe_outputs() {
+    use crate::board::hw::{DAC_MID, ENABLE_PIN};
+    use stm32f4::stm32f405::{DAC, GPIOB, RCC, TIM12};
+    // SAFETY: plain writes to documented fields, valid in any state of the peripherals: with a
+    // peripheral's clock off its writes are ignored, and the GPIOB clock is turned on first.
+    // Nothing else runs meanwhile (interrupts are masked, or this is the first line of `init`).
+    unsafe {
+        let (rcc, gpiob) = (&*RCC::ptr(), &*GPIOB::ptr());
+        // GPIOB clock on (AHB1ENR bit 1), then the enable pin low (BSRR reset bit), then the
+        // pin an output (MODER = 0b01), so that it is driven low the moment it drives.
+        rcc.ahb1enr().modify(|r, w| w.bits(r.bits() | (1 << 1)));
+        gpiob
+            .bsrr()
+            .write(|w| w.bits(1 << (16 + u32::from(ENABLE_PIN))));
+        let shift = 2 * u32::from(ENABLE_PIN);
+        gpiob
+            .moder()
+            .modify(|r, w| w.bits((r.bits() & !(0b11 << shift)) | (0b01 << shift)));
+        // Motor commands at 50 % duty: half the period ARR + 1.
+        let tim12 = &*TIM12::ptr();
+        let half = tim12.arr().read().bits().div_ceil(2);
+        tim12.ccr1().write(|w| w.bits(half));
+        tim12.ccr2().write(|w| w.bits(half));
+        // Piezo command at mid-scale.
+        (*DAC::ptr())
+            .dhr12r1()
+            .write(|w| w.bits(u32::from(DAC_MID)));
+    }
+}
+
+/// The safe outputs of the QEMU board: its output record (the simulated plant is not reached
+/// from here; the run ends right after).
+#[cfg(feature = "qemu")]
+#[inline(never)]
+pub fn force_safe_outputs() {
+    crate::board::sim::OUTPUTS.force_safe();
+}
+
+/// What a failed run ends with: log the outputs, then stop.
+fn stop(what: &str) -> ! {
+    #[cfg(feature = "qemu")]
+    {
+        use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
+        let o = crate::board::sim::OUTPUTS.snapshot();
+        defmt::error!(
+            "{=str}: outputs forced safe: enable {=bool}, tau = ({=f32}, {=f32}) N*m, V_a = {=f32} V",
+            what,
+            o.enable,
+            o.tau[0],
+            o.tau[1],
+            o.v_a
+        );
+        // The injection builds pass when a live arm (enabled before) ended with safe outputs.
+        let expected = cfg!(feature = "inject-panic") || cfg!(feature = "inject-hardfault");
+        let ok = expected && o.was_enabled && o.is_safe();
+        if ok {
+            defmt::info!(
+                "PASS: {=str} forced the safe outputs before anything else",
+                what
+            );
+        }
+        exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
+    }
+    #[cfg(feature = "hw")]
+    defmt::error!(
+        "{=str}: outputs forced safe; halting until the watchdog resets",
+        what
+    );
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    stop_outputs();
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    stop("panic")
+}
+
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    stop_outputs();
+    defmt::error!("HardFault at pc {=u32:#x}", frame.pc());
+    stop("HardFault")
+}
+
+#[cortex_m_rt::exception]
+unsafe fn NonMaskableInt() {
+    stop_outputs();
+    // The clock security system: acknowledge (RCC_CIR.CSSC) so the NMI does not repeat.
+    // SAFETY: CSSC is a write-1-to-clear bit; the other bits written 0 change nothing.
+    #[cfg(feature = "hw")]
+    unsafe {
+        (*stm32f4::stm32f405::RCC::ptr())
+            .cir()
+            .write(|w| w.bits(1 << 23));
+    }
+    defmt::error!("NMI: the crystal stopped (clock security system)");
+    stop("NMI")
+}
+
+#[cortex_m_rt::exception]
+unsafe fn DefaultHandler(irqn: i16) {
+    stop_outputs();
+    defmt::error!("unexpected interrupt {=i16}", irqn);
+    stop("unexpected interrupt")
+}
