@@ -6,6 +6,8 @@
 
 use flexarm_core::Vector2;
 
+#[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
+pub mod clocks;
 #[cfg(feature = "hw")]
 pub mod hw;
 #[cfg(feature = "qemu")]
@@ -15,8 +17,13 @@ pub mod sim;
 pub trait Board {
     /// Joint angles from the encoders [rad].
     fn encoders(&mut self) -> Vector2<f32>;
-    /// Film voltage [V].
+    /// Film voltage [V], sampled for the piezo loop.
     fn film_voltage(&mut self) -> f32;
+    /// Film voltage [V] for the motor loop: the hardware board's latest piezo-loop sample (one
+    /// converter, one sampling instant); the simulated board reads its plant now.
+    fn latest_film_voltage(&mut self) -> f32 {
+        self.film_voltage()
+    }
     /// Motor torque commands [N·m].
     fn set_torques(&mut self, tau: Vector2<f32>);
     /// Piezo amplifier command [V].

@@ -134,8 +134,11 @@ mod app {
         // Before anything else (the crystal wait included): amplifiers disabled, commands safe.
         crate::emergency::force_safe_outputs();
         let dp = cx.device;
-        #[cfg(feature = "hw")]
-        let startup = crate::board::hw::clocks_and_reset_cause(&dp.RCC, &dp.FLASH);
+        // The crystal, the PLL and the reset cause. The QEMU board models no RCC and runs at
+        // the timers' fixed rate; its `inject-no-crystal` build runs the start-up there to
+        // take the path of a crystal that never starts.
+        #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
+        let startup = crate::board::clocks::start(&dp.RCC, &dp.FLASH);
 
         // Timers: TIM2 piezo, TIM3 motor, TIM4 supervisor, TIM5 free-running clock.
         dp.RCC.apb1enr().modify(|_, w| {
@@ -175,7 +178,7 @@ mod app {
             config::limits(),
         );
         // The first cause is kept: a clock failure explains a watchdog reset, not the reverse.
-        #[cfg(feature = "hw")]
+        #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
         {
             if startup.clocks.is_err() {
                 ctrl.trip(Fault::Clock);
@@ -219,6 +222,9 @@ mod app {
         // Piezo first, then motor, then supervisor: at common instants the update events come in
         // that order, so the motor loop sees the plant the piezo loop just advanced.
         periodic!(dp.TIM2, TIMER_CLOCK_HZ / PIEZO_HZ, 1u32);
+        // TIM2's update event is also the film ADC's trigger (CR2 MMS = 0b010: TRGO = update).
+        #[cfg(feature = "hw")]
+        dp.TIM2.cr2().write(|w| w.mms().update());
         periodic!(
             dp.TIM3,
             TIMER_CLOCK_HZ / MOTOR_HZ,
@@ -338,7 +344,7 @@ mod app {
         let (theta, v_f, amp_fault) = cx
             .shared
             .board
-            .lock(|b| (b.encoders(), b.film_voltage(), b.amplifier_fault()));
+            .lock(|b| (b.encoders(), b.latest_film_voltage(), b.amplifier_fault()));
         // The estimate is read only for the telemetry samples.
         let sample = *cx.local.telemetry_countdown == 0;
         *cx.local.telemetry_countdown = match *cx.local.telemetry_countdown {

@@ -11,6 +11,8 @@ const EXPECTED_FAULT: Option<Fault> = if cfg!(feature = "inject-nan") {
     Some(Fault::NonFinite)
 } else if cfg!(feature = "inject-overrun") || cfg!(feature = "inject-piezo-stall") {
     Some(Fault::Overrun)
+} else if cfg!(feature = "inject-no-crystal") {
+    Some(Fault::Clock)
 } else {
     None
 };
@@ -50,6 +52,14 @@ pub fn judge(
                 defmt::error!("FAIL: a bound was exceeded or a deadline missed");
             }
             ok
+        }
+        // A clock failure is latched before the first motor step: the amplifiers must never
+        // have been enabled at all.
+        (Some(Fault::Clock), Some(Fault::Clock))
+            if crate::board::sim::OUTPUTS.snapshot().was_enabled =>
+        {
+            defmt::error!("FAIL: clock fault latched, but the amplifiers were enabled");
+            false
         }
         (Some(want), Some(got)) if want == got && !enabled => {
             defmt::info!(

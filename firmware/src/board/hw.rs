@@ -4,9 +4,9 @@
 //!
 //! | signal | pin | peripheral | scaling |
 //! |---|---|---|---|
-//! | encoder 1 A/B | PA8 / PA9 | TIM1 CH1/CH2, encoder mode (AF1) | 16384 counts/rev |
-//! | encoder 2 A/B | PC6 / PC7 | TIM8 CH1/CH2, encoder mode (AF3) | 16384 counts/rev |
-//! | film voltage | PA0 | ADC1 IN0, 12 bit | 0–3.3 V ↔ −10…+10 V at the film |
+//! | encoder 1 A/B | PA8 / PA9 | TIM1 CH1/CH2, encoder mode (AF1), pull-ups, 1.5 µs filter | 16384 counts/rev |
+//! | encoder 2 A/B | PC6 / PC7 | TIM8 CH1/CH2, encoder mode (AF3), pull-ups, 1.5 µs filter | 16384 counts/rev |
+//! | film voltage | PA0 | ADC1 IN0, 12 bit, started by TIM2's update | 0–3.3 V ↔ −10…+10 V at the film |
 //! | piezo command | PA4 | DAC channel 1, 12 bit, output buffer on | 0–3.3 V ↔ −200…+200 V at the amplifier; the buffer swings 0.2–3.1 V, so ±175 V |
 //! | motor 1 torque | PB14 | TIM12 CH1 PWM, 20 kHz (AF9) | duty 0–100 % ↔ −τ_max…+τ_max |
 //! | motor 2 torque | PB15 | TIM12 CH2 PWM, 20 kHz (AF9) | duty 0–100 % ↔ −τ_max…+τ_max |
@@ -22,7 +22,7 @@ use core::f32::consts::TAU;
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use flexarm_core::Vector2;
 use flexarm_core::params::Limits;
-use stm32f4::stm32f405::{ADC1, DAC, FLASH, GPIOA, GPIOB, GPIOC, IWDG, RCC, TIM1, TIM8, TIM12};
+use stm32f4::stm32f405::{ADC1, DAC, GPIOA, GPIOB, GPIOC, IWDG, RCC, TIM1, TIM8, TIM12};
 
 use super::Board;
 
@@ -32,46 +32,21 @@ pub const ENABLE_PIN: u8 = 12;
 /// the amplifier's input range symmetrically.
 pub const DAC_MID: u16 = 2048;
 
-/// The crystal (HSE) on this board [Hz]. The PLL is derived from it and checked at compile time.
-pub const HSE_HZ: u32 = 8_000_000;
-/// `true` for an oscillator module driving OSC_IN (HSE bypass) instead of a crystal.
-pub const HSE_BYPASS: bool = false;
-/// PLL input after the /M divider [Hz]: 2 MHz, the value RM0090 recommends against jitter.
-const PLL_IN_HZ: u32 = 2_000_000;
-/// PLL /M, ×N, /P, /Q: VCO 336 MHz, SYSCLK 168 MHz, 48 MHz for USB.
-const PLL_M: u32 = HSE_HZ / PLL_IN_HZ;
-const PLL_N: u32 = 336_000_000 / PLL_IN_HZ;
-const PLL_P: u32 = 2;
-const PLL_Q: u32 = 7;
-const _: () = {
-    assert!(
-        HSE_HZ.is_multiple_of(PLL_IN_HZ),
-        "HSE_HZ must be a multiple of 2 MHz"
-    );
-    assert!(
-        PLL_M >= 2 && PLL_M <= 63,
-        "PLL /M out of range (RM0090 6.3.2)"
-    );
-    assert!(PLL_N >= 50 && PLL_N <= 432, "PLL ×N out of range");
-    assert!(
-        HSE_HZ >= 4_000_000 && HSE_HZ <= 26_000_000,
-        "HSE must be 4–26 MHz"
-    );
-    assert!(PLL_IN_HZ * PLL_N / PLL_P == 168_000_000);
-    assert!(PLL_IN_HZ * PLL_N / PLL_Q == 48_000_000);
-};
-/// Polls of a ready flag before giving up: at the 16 MHz internal oscillator about 20 ms,
-/// several times the crystal's and the PLL's start-up time (datasheet: 2 ms typical).
-const READY_POLLS: u32 = 100_000;
-/// Polls of the ADC's end of conversion: 84 + 12 ADC clocks at 21 MHz is 4.6 µs, about 100
-/// polls at 168 MHz; 2000 is a stuck converter.
-const ADC_POLLS: u32 = 2_000;
+/// Polls of the ADC's end of conversion before giving up. The conversion, started by TIM2's
+/// update, takes 84 + 12 ADC clocks at 21 MHz, 4.6 µs (770 core cycles), from which the
+/// interrupt's entry and the work before the read are already gone; a poll (an APB2 read and a
+/// branch) takes 5 to 10 cycles, so 300 polls wait 9 to 18 µs: a stuck converter, not a slow one.
+const ADC_POLLS: u32 = 300;
 
 /// The piezo amplifier's input range: 0–3.3 V at its input is −200…+200 V at the patch.
 const PIEZO_FULL_SCALE_V: f32 = 200.0;
 /// What the DAC's output buffer can reach (0.2 V to VDDA − 0.2 V, datasheet), in volts at the
 /// patch: (3.1 − 1.65) / 1.65 × 200 V = 175.8 V, rounded down. The controller's limit.
 pub const PIEZO_V_MAX: f32 = 175.0;
+
+/// Per axis, `true` reverses the encoder's counting direction (the timer's input polarity),
+/// for an encoder mounted or wired the other way round: angles must grow counter-clockwise.
+pub const ENCODER_REVERSED: [bool; 2] = [false, false];
 
 /// Encoder counts per revolution (4096-line encoders, ×4 quadrature).
 const COUNTS_PER_REV: f32 = 16384.0;
@@ -87,89 +62,6 @@ macro_rules! set_bits {
         // SAFETY: the value is a documented field setting of this register (RM0090).
         $reg.modify(|r, w| unsafe { w.bits((r.bits() & !($mask)) | ($value)) })
     };
-}
-
-/// Why the clocks could not be brought up.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ClockError {
-    /// The crystal (or oscillator module) never became ready.
-    Hse,
-    /// The PLL never locked.
-    Pll,
-}
-
-/// How the chip came up.
-pub struct Startup {
-    /// The last reset came from the independent watchdog (the flag is then cleared).
-    pub reset_by_watchdog: bool,
-    /// `Err` if the chip stays on its 16 MHz internal oscillator: the loop rates are then
-    /// wrong, and the amplifiers must never be enabled.
-    pub clocks: Result<(), ClockError>,
-    /// The brown-out reset level in the option bytes is not off (`BOR_LEV ≠ 0b11`).
-    pub brown_out_reset_on: bool,
-}
-
-/// Sets the system clock to 168 MHz from the crystal (`HSE_HZ`; PLL /M ×N /P /Q derived above;
-/// AHB 168 MHz, APB1 42 MHz with its timers at 84 MHz, APB2 84 MHz; 5 flash wait states), with
-/// the clock security system on, and reads the reset cause and the brown-out setting. Every wait
-/// is bounded: a crystal or PLL that does not start leaves the chip on the internal oscillator
-/// and reports it.
-pub fn clocks_and_reset_cause(rcc: &RCC, flash: &FLASH) -> Startup {
-    let reset_by_watchdog = rcc.csr().read().wdgrstf().bit_is_set();
-    rcc.csr().modify(|_, w| w.rmvf().set_bit());
-    // FLASH_OPTCR BOR_LEV (bits 2–3): 0b11 is "off".
-    let brown_out_reset_on = (flash.optcr().read().bits() >> 2) & 0b11 != 0b11;
-    let ready = |done: &dyn Fn() -> bool| (0..READY_POLLS).any(|_| done());
-    rcc.cr()
-        .modify(|_, w| w.hsebyp().bit(HSE_BYPASS).hseon().set_bit());
-    if !ready(&|| rcc.cr().read().hserdy().bit_is_set()) {
-        rcc.cr().modify(|_, w| w.hseon().clear_bit());
-        return Startup {
-            reset_by_watchdog,
-            clocks: Err(ClockError::Hse),
-            brown_out_reset_on,
-        };
-    }
-    // PLLCFGR: PLLM (bits 0–5), PLLN (6–14), PLLP = /2 (16–17 = 0), PLLSRC = HSE (22),
-    // PLLQ (24–27).
-    set_bits!(
-        rcc.pllcfgr(),
-        0x0F43_7FFF,
-        PLL_M | (PLL_N << 6) | ((PLL_P / 2 - 1) << 16) | (1 << 22) | (PLL_Q << 24)
-    );
-    rcc.cr().modify(|_, w| w.pllon().set_bit());
-    if !ready(&|| rcc.cr().read().pllrdy().bit_is_set()) {
-        return Startup {
-            reset_by_watchdog,
-            clocks: Err(ClockError::Pll),
-            brown_out_reset_on,
-        };
-    }
-    // FLASH ACR: LATENCY = 5 WS, prefetch, instruction and data caches on.
-    set_bits!(
-        flash.acr(),
-        0x0000_070F,
-        5 | (1 << 8) | (1 << 9) | (1 << 10)
-    );
-    // CFGR: HPRE = /1 (bits 4–7 = 0), PPRE1 = /4 (10–12 = 0b101), PPRE2 = /2 (13–15 = 0b100).
-    set_bits!(rcc.cfgr(), 0x0000_FCF0, (0b101 << 10) | (0b100 << 13));
-    // SW = PLL (bits 0–1 = 0b10), wait for SWS = PLL (bits 2–3).
-    set_bits!(rcc.cfgr(), 0x3, 0b10);
-    if !ready(&|| (rcc.cfgr().read().bits() >> 2) & 0x3 == 0b10) {
-        return Startup {
-            reset_by_watchdog,
-            clocks: Err(ClockError::Pll),
-            brown_out_reset_on,
-        };
-    }
-    // The clock security system: if the crystal stops, the chip falls back to the internal
-    // oscillator and raises the NMI (`crate::emergency`).
-    rcc.cr().modify(|_, w| w.csson().set_bit());
-    Startup {
-        reset_by_watchdog,
-        clocks: Ok(()),
-        brown_out_reset_on,
-    }
 }
 
 /// Starts the independent watchdog: LSI 32 kHz / 32, reload 500, a timeout of 0.5 s (0.34 s
@@ -243,6 +135,8 @@ pub struct HwBoard {
     counts: [i32; 2],
     tau_max: Vector2<f32>,
     pwm_period: u32,
+    /// The piezo loop's latest film sample [V].
+    film: f32,
 }
 
 impl HwBoard {
@@ -296,9 +190,13 @@ impl HwBoard {
             3 | (3 << 8) | (2 << 16) | (2 << 18)
         );
         set_bits!(gpioa.afrh(), 0xFF, 0x11);
-        // GPIOC: PC6/PC7 AF3 (TIM8).
+        // Encoder inputs pulled up (PUPDR = 0b01): open-collector encoders need it, line
+        // receivers with push-pull outputs do not mind it.
+        set_bits!(gpioa.pupdr(), (3 << 16) | (3 << 18), (1 << 16) | (1 << 18));
+        // GPIOC: PC6/PC7 AF3 (TIM8), pulled up as well.
         set_bits!(gpioc.moder(), (3 << 12) | (3 << 14), (2 << 12) | (2 << 14));
         set_bits!(gpioc.afrl(), 0xFF << 24, 0x33 << 24);
+        set_bits!(gpioc.pupdr(), (3 << 12) | (3 << 14), (1 << 12) | (1 << 14));
         // GPIOB: PB12 output (enable, already low: `emergency::force_safe_outputs` in `init`),
         // PB13 input with pull-up, PB14/PB15 AF9 (TIM12, already running at 50 %).
         // SAFETY: BSRR bit 28 resets PB12.
@@ -308,29 +206,40 @@ impl HwBoard {
         set_bits!(gpiob.pupdr(), 3 << 26, 1 << 26);
 
         // Encoders: SMCR SMS = 0b011 (count on both edges of both inputs), CCMR1 CC1S = CC2S =
-        // 0b01 (TI1, TI2), input filter 0b0011, ARR = 0xFFFF, counter on.
+        // 0b01 (TI1, TI2), input filter 0b1111 (f_DTS/32, 8 samples: 1.5 µs at the 168 MHz
+        // timer clock, against PWM noise on the cables; the fastest edge spacing, 20 rad/s on
+        // a 4096-line encoder, is 19 µs), CCER CC1P inverted for a reversed axis
+        // (`ENCODER_REVERSED`), ARR = 0xFFFF, counter on.
         macro_rules! encoder {
-            ($t:expr) => {{
+            ($t:expr, $reversed:expr) => {{
                 set_bits!($t.smcr(), 0x7, 0b011);
                 set_bits!(
                     $t.ccmr1_input(),
                     0xF3F3,
-                    0x0101 | (0b0011 << 4) | (0b0011 << 12)
+                    0x0101 | (0b1111 << 4) | (0b1111 << 12)
                 );
+                set_bits!($t.ccer(), 1 << 1, u32::from($reversed) << 1);
                 set_bits!($t.arr(), 0xFFFF, 0xFFFF);
                 set_bits!($t.cr1(), 1, 1);
             }};
         }
-        encoder!(tim1);
-        encoder!(tim8);
+        encoder!(tim1, ENCODER_REVERSED[0]);
+        encoder!(tim8, ENCODER_REVERSED[1]);
 
         // ADC common clock: ADCPRE = /4 (ADC_CCR bits 16–17 = 0b01), 84 MHz / 4 = 21 MHz, within
-        // the 36 MHz maximum. ADC1: 12 bit, IN0 first in the sequence, 84-cycle sampling, on.
+        // the 36 MHz maximum. ADC1: 12 bit, IN0 first in the sequence, 84-cycle sampling,
+        // conversions started by TIM2's TRGO (EXTSEL = 0b0110, bits 24–27; EXTEN = rising,
+        // bits 28–29), i.e. at each piezo period's update event, on.
         // SAFETY: ADC_CCR is shared by the three ADCs, of which this board uses ADC1 only.
         let common = unsafe { &*stm32f4::stm32f405::ADC_COMMON::ptr() };
         set_bits!(common.ccr(), 0b11 << 16, 0b01 << 16);
         set_bits!(adc.sqr3(), 0x1F, 0);
         set_bits!(adc.smpr2(), 0x7, 0b100);
+        set_bits!(
+            adc.cr2(),
+            (0xF << 24) | (0b11 << 28),
+            (0b0110 << 24) | (0b01 << 28)
+        );
         set_bits!(adc.cr2(), 1, 1);
 
         let limits = Limits::<f32>::default();
@@ -350,6 +259,7 @@ impl HwBoard {
             counts: [0; 2],
             tau_max: limits.tau_max,
             pwm_period,
+            film: 0.0,
         }
     }
 
@@ -380,16 +290,24 @@ impl Board for HwBoard {
         Vector2::new(self.counts[0] as f32, self.counts[1] as f32) * (TAU / COUNTS_PER_REV)
     }
 
-    /// NaN if the conversion does not end within `ADC_POLLS` (the controller then latches
-    /// `NonFinite` and commands the safe state).
+    /// The conversion TIM2's update started at the beginning of this piezo period (the
+    /// sampling instant is the timer's, not the task's), waited for at most `ADC_POLLS`; NaN if
+    /// it does not end (the controller then latches `NonFinite` and commands the safe state).
+    /// Called by the piezo loop; the result is kept for the motor loop.
     fn film_voltage(&mut self) -> f32 {
-        set_bits!(self.adc.cr2(), 1 << 30, 1 << 30); // SWSTART
         let eoc = (0..ADC_POLLS).any(|_| self.adc.sr().read().bits() & (1 << 1) != 0);
-        if !eoc {
-            return f32::NAN;
-        }
-        let code = (self.adc.dr().read().bits() & 0xFFF) as f32;
-        (code / 4095.0 * 2.0 - 1.0) * FILM_RANGE
+        self.film = if eoc {
+            let code = (self.adc.dr().read().bits() & 0xFFF) as f32; // clears EOC
+            (code / 4095.0 * 2.0 - 1.0) * FILM_RANGE
+        } else {
+            f32::NAN
+        };
+        self.film
+    }
+
+    /// The piezo loop's latest sample: the motor loop starts no conversion of its own.
+    fn latest_film_voltage(&mut self) -> f32 {
+        self.film
     }
 
     fn set_torques(&mut self, tau: Vector2<f32>) {
