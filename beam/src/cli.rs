@@ -400,16 +400,6 @@ pub fn run_optimize(
         )?;
         plot::mode_shapes(&out_dir.join("modes.svg"), &model, &best)?;
     }
-    let _ = writeln!(
-        out,
-        "\nWrote {}: grid.csv, piezo.toml, summary.md{}.",
-        out_dir.display(),
-        if plots {
-            ", heatmap.svg, heatmap_share.svg, heatmap_gain_limit.svg, gain.svg, modes.svg"
-        } else {
-            ""
-        }
-    );
     write("summary.md", &out)?;
     Ok(out)
 }

@@ -194,6 +194,10 @@ pub fn render(fragment_text: &str, names: &Names<'_>) -> Result<String, Error> {
     Ok(source(&design(fragment_text)?, names))
 }
 
+/// The first line of every generated parameter file.
+pub const GENERATED_FIRST_LINE: &str =
+    "//! The piezo patch and observer gains the firmware runs (paper's arm, modes = \"paper\").";
+
 /// The Rust source for parameters already designed ([`design`]).
 pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
     let f = |x: f64| format!("{:e}", x as f32);
@@ -204,7 +208,7 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
         "`piezo.k_c`"
     };
     let mut s = format!(
-        "//! The piezo patch and observer gains the firmware runs (paper's arm, modes = \"paper\").\n\
+        "{GENERATED_FIRST_LINE}\n\
          //!\n\
          //! Generated: do not edit. Source: `{frag}`. Regenerate with\n\
          //! `cargo sim firmware-params {frag} --out {out}`\n\
@@ -285,4 +289,19 @@ pub fn paper_fragment() -> Result<String, Error> {
          # k_c applies to the paper's modes as written (no k_c_paper_modes: the core's default 30 s).\n\
          {body}"
     ))
+}
+
+/// Whether `text` is a generated parameter file (its first line is the one [`source`] writes),
+/// which `firmware-params` may replace without `--force`.
+pub fn is_generated_source(text: &str) -> bool {
+    text.lines().next() == Some(GENERATED_FIRST_LINE)
+}
+
+/// Whether `text` is a `[piezo]` fragment a flexarm command wrote (the paper's, by
+/// `--paper-fragment`, or the optimizer's), which `--paper-fragment` may replace without
+/// `--force`.
+pub fn is_generated_fragment(text: &str) -> bool {
+    let first = text.lines().next().unwrap_or("");
+    first.starts_with("# The patch the firmware runs:")
+        || first.starts_with("# Piezo patch chosen by `flexarm-sim optimize`")
 }

@@ -7,6 +7,7 @@
 
 pub mod firmware_params;
 pub mod montecarlo;
+pub mod outdir;
 pub mod output;
 pub mod plant;
 pub mod scenario;

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
+use flexarm_sim::outdir::{OutDir, write_atomic};
 use flexarm_sim::sim::Rates;
 use flexarm_sim::study::{self, Case, Options, Outcome};
 use flexarm_sim::{firmware_params, montecarlo, output, scenario};
@@ -41,6 +42,9 @@ enum Command {
         /// Skip the figures.
         #[arg(long)]
         no_plots: bool,
+        /// Replace files of the same names that no flexarm command wrote.
+        #[arg(long)]
+        force: bool,
     },
     /// The firmware's generated parameters (patch, k_c, observer gains) from a [piezo] fragment.
     FirmwareParams {
@@ -52,6 +56,9 @@ enum Command {
         /// First (over)write the fragment with the paper's patch (x_a = 0.09 m, l_a = 0.35 m, k_c = 30 s).
         #[arg(long)]
         paper_fragment: bool,
+        /// Replace an output or fragment that flexarm did not generate.
+        #[arg(long)]
+        force: bool,
     },
     /// Monte Carlo: the plant's masses, inertias, frequencies and damping perturbed by ±10 % and ±20 %.
     Montecarlo {
@@ -67,6 +74,9 @@ enum Command {
         /// Skip the figure.
         #[arg(long)]
         no_plots: bool,
+        /// Replace files of the same names that no flexarm command wrote.
+        #[arg(long)]
+        force: bool,
     },
 }
 
@@ -78,6 +88,9 @@ struct Common {
     /// Skip the figures (CSV and tables are still written).
     #[arg(long)]
     no_plots: bool,
+    /// Replace files of the same names that no flexarm command wrote.
+    #[arg(long)]
+    force: bool,
     /// Plant integration step [s].
     #[arg(long)]
     plant_dt: Option<f64>,
@@ -103,15 +116,19 @@ impl Common {
 
 type Result<T> = std::result::Result<T, String>;
 
-fn create(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))
-}
-
-fn write_outputs(dir: &Path, outcomes: &[Outcome], plots: bool, preamble: &str) -> Result<String> {
-    create(dir)?;
+/// Writes the runs' CSV, figures and the indices table (`report`) through the output folder's
+/// staging; returns the table.
+fn write_outputs(
+    out: &OutDir,
+    outcomes: &[Outcome],
+    plots: bool,
+    preamble: &str,
+    report: &str,
+) -> Result<String> {
+    let dir = out.staging();
     for o in outcomes {
         output::write_csv(dir, o)
-            .map_err(|e| format!("cannot write CSV in {}: {e}", dir.display()))?;
+            .map_err(|e| format!("cannot write CSV in {}: {e}", out.dir().display()))?;
         if plots {
             output::write_figure(dir, o).map_err(|e| {
                 format!(
@@ -123,20 +140,26 @@ fn write_outputs(dir: &Path, outcomes: &[Outcome], plots: bool, preamble: &str) 
     }
     let table = output::indices_table(outcomes);
     let md = format!("# flexarm-sim: indices (Eqs. 37, 38)\n\n{preamble}{table}");
-    let path = dir.join("indices.md");
-    std::fs::write(&path, &md).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    let path = dir.join(report);
+    std::fs::write(&path, &md).map_err(|e| format!("cannot write {report}: {e}"))?;
     Ok(table)
 }
 
-fn run_cases(cases: Vec<Case>, common: &Common, preamble: &str) -> Result<()> {
+/// Runs the cases and writes them into `--out` as the command `command`, with the indices in
+/// `report`.
+fn run_cases(
+    cases: Vec<Case>,
+    common: &Common,
+    preamble: &str,
+    command: &str,
+    report: &str,
+) -> Result<()> {
     let outcomes = study::run(cases, true, true).map_err(|(case, e)| format!("{case}: {e}"))?;
-    let table = write_outputs(&common.out, &outcomes, !common.no_plots, preamble)?;
+    let out = OutDir::open(&common.out, command, common.force)?;
+    let table = write_outputs(&out, &outcomes, !common.no_plots, preamble, report)?;
+    let files = out.commit()?;
     println!("{preamble}{table}");
-    println!(
-        "Wrote {} (CSV{}, indices.md).",
-        common.out.display(),
-        if common.no_plots { "" } else { ", SVG figures" }
-    );
+    println!("Wrote {}: {}.", common.out.display(), files.join(", "));
     Ok(())
 }
 
@@ -149,13 +172,15 @@ fn main_result(cli: Cli) -> Result<()> {
             let note = study::printed_circle_error()
                 .map(|e| format!("{e}; the study runs the nearest reachable circle of the same radius, centre (0.65, 0) m (docs/model.md).\n\n"))
                 .unwrap_or_default();
-            run_cases(cases, &common, &note)
+            run_cases(cases, &common, &note, "paper", "indices.md")
         }
         Command::Run { scenario, common } => {
             let sc = scenario::load(&scenario).map_err(|e| e.to_string())?;
             let mut config = sc.config;
             common.apply(&mut config.rates, &mut config.duration);
             config.rates.divisors().map_err(|e| e.to_string())?;
+            let report = format!("{}_indices.md", sc.name);
+            let command = format!("run:{}", sc.name);
             let name: &'static str = Box::leak(sc.name.into_boxed_str());
             run_cases(
                 vec![Case {
@@ -166,28 +191,41 @@ fn main_result(cli: Cli) -> Result<()> {
                 }],
                 &common,
                 "",
+                &command,
+                &report,
             )
         }
         Command::Optimize {
             config,
             out,
             no_plots,
+            force,
         } => {
-            let summary = flexarm_beam::cli::run_optimize(config.as_deref(), &out, !no_plots)
-                .map_err(|e| e.to_string())?;
-            println!("{summary}");
+            let dir = OutDir::open(&out, "optimize", force)?;
+            let summary =
+                flexarm_beam::cli::run_optimize(config.as_deref(), dir.staging(), !no_plots)
+                    .map_err(|e| e.to_string())?;
+            let files = dir.commit()?;
+            println!("{summary}\nWrote {}: {}.", out.display(), files.join(", "));
             Ok(())
         }
         Command::FirmwareParams {
             fragment,
             out,
             paper_fragment,
+            force,
         } => {
             let path = fragment.unwrap_or_else(|| PathBuf::from(firmware_params::DEFAULT_FRAGMENT));
+            if same_file(&path, &out) {
+                return Err(format!(
+                    "--out {} is the fragment itself: choose another output",
+                    out.display()
+                ));
+            }
             if paper_fragment {
+                refuse_foreign(&path, force, firmware_params::is_generated_fragment)?;
                 let text = firmware_params::paper_fragment().map_err(|e| e.to_string())?;
-                std::fs::write(&path, text)
-                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                write_atomic(&path, text.as_bytes())?;
             }
             let text = std::fs::read_to_string(&path).map_err(|e| {
                 format!(
@@ -202,7 +240,8 @@ fn main_result(cli: Cli) -> Result<()> {
             };
             let p = firmware_params::design(&text).map_err(|e| format!("{fragment_name}: {e}"))?;
             let source = firmware_params::source(&p, &names);
-            std::fs::write(&out, source).map_err(|e| format!("cannot write {out_name}: {e}"))?;
+            refuse_foreign(&out, force, firmware_params::is_generated_source)?;
+            write_atomic(&out, source.as_bytes())?;
             println!(
                 "Wrote {out_name} from {fragment_name}: x_a = {} m, l_a = {} m, k_c = {} s; observer gains for 1 kHz and 100 Hz.",
                 p.patch.x_a, p.patch.l_a, p.k_c
@@ -214,23 +253,49 @@ fn main_result(cli: Cli) -> Result<()> {
             seed,
             out,
             no_plots,
+            force,
         } => {
             if runs == 0 {
                 return Err("--runs must be at least 1".into());
             }
-            create(&out)?;
             let batches = montecarlo::run(&[0.1, 0.2], runs, seed, true);
             let report = montecarlo::report(&batches);
-            let path = out.join("montecarlo.md");
+            let dir = OutDir::open(&out, "montecarlo", force)?;
+            let path = dir.staging().join("montecarlo.md");
             std::fs::write(&path, format!("# Monte Carlo robustness\n\n{report}"))
-                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                .map_err(|e| format!("cannot write montecarlo.md: {e}"))?;
             if !no_plots {
-                montecarlo::figure(&out.join("montecarlo.svg"), &batches)
+                montecarlo::figure(&dir.staging().join("montecarlo.svg"), &batches)
                     .map_err(|e| format!("cannot draw the figure: {e}"))?;
             }
-            println!("{report}\nWrote {}.", out.display());
+            let files = dir.commit()?;
+            println!("{report}\nWrote {}: {}.", out.display(), files.join(", "));
             Ok(())
         }
+    }
+}
+
+/// Whether `a` and `b` name the same file (both existing, or the same path as written).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => a == b,
+    }
+}
+
+/// Refuses to replace an existing `path` whose content `ours` does not recognize, unless `force`.
+fn refuse_foreign(path: &Path, force: bool, ours: fn(&str) -> bool) -> Result<()> {
+    if force || !path.exists() {
+        return Ok(());
+    }
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    if ours(&text) {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} exists and was not generated by flexarm: not replaced (choose another path, or --force)",
+            path.display()
+        ))
     }
 }
 

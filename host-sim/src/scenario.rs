@@ -434,8 +434,11 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             JointTrajectory::Hold(Vector2::new(angles[0] as f32, angles[1] as f32))
         }
     };
+    let name = f.name.unwrap_or_else(|| "scenario".into());
+    crate::outdir::check_file_name(&name)
+        .map_err(|e| ScenarioError(format!("`name`: {e}: it names the output files")))?;
     Ok(Scenario {
-        name: f.name.unwrap_or_else(|| "scenario".into()),
+        name,
         config: cfg,
         trajectory,
     })

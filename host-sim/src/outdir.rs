@@ -1,0 +1,279 @@
+//! Output folders that lose nothing: every command writes its files into a staging folder
+//! inside the output folder and moves them into place only when all of them are written.
+//!
+//! Rules (the user's files are never at risk):
+//! - a command replaces only files that a flexarm command wrote into that folder before (the
+//!   folder's manifest, `.flexarm-outputs`, lists them); any other file of the same name is left
+//!   alone and the command fails, unless `--force`;
+//! - a command's earlier files that this run did not write again are removed, so no stale figure
+//!   sits beside new data; files of other commands stay (`run` after `paper` keeps the study);
+//! - an error before the end leaves the folder as it was: the staging folder is removed, nothing
+//!   half-written looks like a result;
+//! - paths are relative to the current directory, like any command-line tool's (`out/` by
+//!   default).
+
+use std::collections::BTreeSet;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+/// The manifest's name: one `command<TAB>file` line per file a flexarm command wrote.
+pub const MANIFEST: &str = ".flexarm-outputs";
+
+/// An output folder being written by one command.
+pub struct OutDir {
+    dir: PathBuf,
+    staging: PathBuf,
+    command: String,
+    force: bool,
+    committed: bool,
+}
+
+fn io(what: &str, path: &Path, e: std::io::Error) -> String {
+    format!("cannot {what} {}: {e}", path.display())
+}
+
+/// Checks that `name` can name a file inside an output folder: not empty, no path separator,
+/// not `.` or `..`, not hidden, printable ASCII letters, digits, `_`, `-` and `.` only.
+pub fn check_file_name(name: &str) -> Result<(), String> {
+    let ok = !name.is_empty()
+        && name.len() <= 100
+        && !name.starts_with('.')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name:?} is not a plain file name (1 to 100 of A–Z, a–z, 0–9, '_', '-', '.', not starting with '.')"
+        ))
+    }
+}
+
+impl OutDir {
+    /// Opens `dir` (created if missing) for `command` (a stable key such as `paper` or
+    /// `run:trapezoid`) and a fresh staging folder inside it.
+    pub fn open(dir: &Path, command: &str, force: bool) -> Result<Self, String> {
+        fs::create_dir_all(dir).map_err(|e| io("create", dir, e))?;
+        let staging = dir.join(format!(".flexarm-staging-{}", std::process::id()));
+        if staging.exists() {
+            fs::remove_dir_all(&staging).map_err(|e| io("clear", &staging, e))?;
+        }
+        fs::create_dir(&staging).map_err(|e| io("create", &staging, e))?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            staging,
+            command: command.to_string(),
+            force,
+            committed: false,
+        })
+    }
+
+    /// Where the command writes its files until [`Self::commit`].
+    pub fn staging(&self) -> &Path {
+        &self.staging
+    }
+
+    /// The final folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    fn manifest(&self) -> Result<Vec<(String, String)>, String> {
+        let path = self.dir.join(MANIFEST);
+        match fs::read_to_string(&path) {
+            Ok(text) => Ok(text
+                .lines()
+                .filter_map(|l| l.split_once('\t'))
+                .filter(|(_, f)| check_file_name(f).is_ok())
+                .map(|(c, f)| (c.to_string(), f.to_string()))
+                .collect()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Vec::new()),
+            Err(e) => Err(io("read", &path, e)),
+        }
+    }
+
+    /// Moves the staged files into the folder, removes this command's stale files and records
+    /// the new set. Returns the names written, sorted. Fails, changing nothing, if a staged
+    /// name collides with a file no flexarm command wrote (without `force`).
+    pub fn commit(mut self) -> Result<Vec<String>, String> {
+        let mut names = BTreeSet::new();
+        for entry in fs::read_dir(&self.staging).map_err(|e| io("read", &self.staging, e))? {
+            let entry = entry.map_err(|e| io("read", &self.staging, e))?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            check_file_name(&name)?;
+            names.insert(name);
+        }
+        let manifest = self.manifest()?;
+        let ours: BTreeSet<&str> = manifest.iter().map(|(_, f)| f.as_str()).collect();
+        if !self.force {
+            for n in &names {
+                let target = self.dir.join(n);
+                if target.exists() && !ours.contains(n.as_str()) {
+                    return Err(format!(
+                        "{} exists and was not written by flexarm: not replaced (choose another --out, or --force)",
+                        target.display()
+                    ));
+                }
+            }
+        }
+        for n in &names {
+            let (from, to) = (self.staging.join(n), self.dir.join(n));
+            fs::rename(&from, &to).map_err(|e| io("move into place", &to, e))?;
+        }
+        // This command's earlier files that it did not write again.
+        for (c, f) in &manifest {
+            if *c == self.command && !names.contains(f) {
+                let _ = fs::remove_file(self.dir.join(f));
+            }
+        }
+        let mut lines: Vec<String> = manifest
+            .iter()
+            .filter(|(c, f)| *c != self.command && !names.contains(f))
+            .map(|(c, f)| format!("{c}\t{f}"))
+            .collect();
+        lines.extend(names.iter().map(|n| format!("{}\t{n}", self.command)));
+        lines.sort();
+        let tmp = self.staging.join(".manifest");
+        fs::write(&tmp, lines.join("\n") + "\n").map_err(|e| io("write", &tmp, e))?;
+        let path = self.dir.join(MANIFEST);
+        fs::rename(&tmp, &path).map_err(|e| io("write", &path, e))?;
+        self.committed = true;
+        let _ = fs::remove_dir_all(&self.staging);
+        Ok(names.into_iter().collect())
+    }
+}
+
+impl Drop for OutDir {
+    /// Without a commit, the staging folder and everything in it go.
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = fs::remove_dir_all(&self.staging);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so that
+/// `path` holds either its old content or the whole new one.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    fs::write(&tmp, bytes).map_err(|e| io("write", &tmp, e))?;
+    fs::rename(&tmp, path).map_err(|e| {
+        let _ = fs::remove_file(&tmp);
+        io("write", path, e)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("flexarm-outdir-{tag}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&d);
+        d
+    }
+
+    fn write(o: &OutDir, name: &str, text: &str) {
+        fs::write(o.staging().join(name), text).unwrap();
+    }
+
+    #[test]
+    fn plain_names_only() {
+        for bad in [
+            "",
+            "..",
+            ".",
+            "../x",
+            "/etc/passwd",
+            "a/b",
+            ".hidden",
+            "a b",
+            "é",
+        ] {
+            assert!(check_file_name(bad).is_err(), "{bad:?}");
+        }
+        for good in ["trapezoid", "run-1.csv", "A_b.9"] {
+            assert!(check_file_name(good).is_ok(), "{good:?}");
+        }
+    }
+
+    #[test]
+    fn commit_moves_replaces_its_own_and_removes_its_stale_files() {
+        let d = scratch("commit");
+        let o = OutDir::open(&d, "paper", false).unwrap();
+        write(&o, "a.csv", "1");
+        write(&o, "b.svg", "1");
+        assert_eq!(o.commit().unwrap(), ["a.csv", "b.svg"]);
+        // Another command's file stays; the same command's stale file goes.
+        let o = OutDir::open(&d, "run:x", false).unwrap();
+        write(&o, "x.csv", "2");
+        o.commit().unwrap();
+        let o = OutDir::open(&d, "paper", false).unwrap();
+        write(&o, "a.csv", "3");
+        o.commit().unwrap();
+        assert_eq!(fs::read_to_string(d.join("a.csv")).unwrap(), "3");
+        assert!(!d.join("b.svg").exists(), "stale figure removed");
+        assert!(d.join("x.csv").exists(), "the other command's file kept");
+        let entries: Vec<_> = fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert!(
+            !entries
+                .iter()
+                .any(|e| e.to_string_lossy().starts_with(".flexarm-staging")),
+            "{entries:?}"
+        );
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_file_that_is_not_ours_is_not_replaced_without_force() {
+        let d = scratch("foreign");
+        fs::create_dir_all(&d).unwrap();
+        fs::write(d.join("notes.md"), "mine").unwrap();
+        let o = OutDir::open(&d, "paper", false).unwrap();
+        write(&o, "notes.md", "generated");
+        write(&o, "a.csv", "1");
+        let e = o.commit().unwrap_err();
+        assert!(e.contains("not written by flexarm"), "{e}");
+        assert_eq!(fs::read_to_string(d.join("notes.md")).unwrap(), "mine");
+        assert!(
+            !d.join("a.csv").exists(),
+            "nothing moved when one name collides"
+        );
+        let o = OutDir::open(&d, "paper", true).unwrap();
+        write(&o, "notes.md", "generated");
+        o.commit().unwrap();
+        assert_eq!(fs::read_to_string(d.join("notes.md")).unwrap(), "generated");
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn without_commit_nothing_appears() {
+        let d = scratch("drop");
+        {
+            let o = OutDir::open(&d, "paper", false).unwrap();
+            write(&o, "a.csv", "1");
+        }
+        assert_eq!(fs::read_dir(&d).unwrap().count(), 0);
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn atomic_write_replaces_whole() {
+        let d = scratch("atomic");
+        fs::create_dir_all(&d).unwrap();
+        let p = d.join("f.rs");
+        write_atomic(&p, b"one").unwrap();
+        write_atomic(&p, b"two").unwrap();
+        assert_eq!(fs::read_to_string(&p).unwrap(), "two");
+        assert_eq!(fs::read_dir(&d).unwrap().count(), 1, "no temporary left");
+        fs::remove_dir_all(&d).unwrap();
+    }
+}
