@@ -131,6 +131,11 @@ impl<T: Real> Profile<T> {
         self.duration
     }
 
+    /// Time of each constant-acceleration ramp [s].
+    pub fn ramp(&self) -> T {
+        self.ramp
+    }
+
     /// `(s, ṡ, s̈)` at time `t` [s]; rest at 0 before the start (and for a NaN time), rest at
     /// 1 after the end. Right-continuous at every breakpoint, the start included: at `t = 0`
     /// the acceleration is already the first ramp's, so a zero-order hold of the sample taken

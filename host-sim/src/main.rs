@@ -106,6 +106,14 @@ struct Common {
 }
 
 impl Common {
+    /// Whether any option overrides the file or the defaults.
+    fn overrides(&self) -> bool {
+        self.plant_dt.is_some()
+            || self.motor_hz.is_some()
+            || self.piezo_hz.is_some()
+            || self.duration.is_some()
+    }
+
     fn apply(&self, rates: &mut Rates, duration: &mut f64) {
         rates.plant_dt = self.plant_dt.unwrap_or(rates.plant_dt);
         rates.motor_hz = self.motor_hz.unwrap_or(rates.motor_hz);
@@ -169,6 +177,15 @@ fn main_result(cli: Cli) -> Result<()> {
             let mut opts = Options::default();
             common.apply(&mut opts.rates, &mut opts.duration);
             let cases = study::paper_cases(&opts).map_err(|e| e.to_string())?;
+            for c in &cases {
+                c.config.validate(&c.trajectory).map_err(|e| {
+                    if common.overrides() {
+                        format!("with the command-line options: {e}")
+                    } else {
+                        e.to_string()
+                    }
+                })?;
+            }
             let note = study::printed_circle_error()
                 .map(|e| format!("{e}; the study runs the nearest reachable circle of the same radius, centre (0.65, 0) m (docs/model.md).\n\n"))
                 .unwrap_or_default();
@@ -178,7 +195,10 @@ fn main_result(cli: Cli) -> Result<()> {
             let sc = scenario::load(&scenario).map_err(|e| e.to_string())?;
             let mut config = sc.config;
             common.apply(&mut config.rates, &mut config.duration);
-            config.rates.divisors().map_err(|e| e.to_string())?;
+            // The overrides go through the same check as the file.
+            config.validate(&sc.trajectory).map_err(|e| {
+                format!("{}: with the command-line options: {e}", scenario.display())
+            })?;
             let report = format!("{}_indices.md", sc.name);
             let command = format!("run:{}", sc.name);
             let name: &'static str = Box::leak(sc.name.into_boxed_str());

@@ -410,6 +410,12 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             margin,
         } => {
             let centre = centre.unwrap_or([0.65, 0.0]);
+            let margin = margin.unwrap_or(0.05);
+            if !(margin.is_finite() && margin >= 0.0) {
+                return err(format!(
+                    "`trajectory.margin` = {margin} m must be a finite distance >= 0 inside the reachable annulus"
+                ));
+            }
             let circle = Circle::new(
                 kin,
                 Vector2::new(centre[0] as f32, centre[1] as f32),
@@ -425,7 +431,7 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
                     Some(ElbowSpec::Negative) => Elbow::Negative,
                     _ => Elbow::Positive,
                 },
-                margin.unwrap_or(0.05) as f32,
+                margin as f32,
             )
             .map_err(terr)?;
             JointTrajectory::Circle(circle)
@@ -434,6 +440,8 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             JointTrajectory::Hold(Vector2::new(angles[0] as f32, angles[1] as f32))
         }
     };
+    cfg.validate(&trajectory)
+        .map_err(|e| ScenarioError(e.to_string()))?;
     let name = f.name.unwrap_or_else(|| "scenario".into());
     crate::outdir::check_file_name(&name)
         .map_err(|e| ScenarioError(format!("`name`: {e}: it names the output files")))?;

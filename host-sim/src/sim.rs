@@ -17,7 +17,7 @@ use flexarm_core::model::Model;
 use flexarm_core::observer::{Measurement, NoiseModel, Observer, design, film_map};
 use flexarm_core::params::{ArmParams, Gains, Limits, ParamError};
 use flexarm_core::supervisor::SensorLimits;
-use flexarm_core::trajectory::JointTrajectory;
+use flexarm_core::trajectory::{Circle, JointTrajectory, Trapezoid};
 use flexarm_core::{Fault, Vector2, Vector4};
 
 use crate::plant::{Diverged, State, rk4_step};
@@ -51,13 +51,22 @@ impl Rates {
         if !(self.plant_dt.is_finite() && self.plant_dt > 0.0) {
             return Err(SimError::Config(ParamError::NotPositive("plant_dt")));
         }
+        if !(PLANT_DT_RANGE.0..=PLANT_DT_RANGE.1).contains(&self.plant_dt) {
+            return Err(SimError::Input {
+                key: "rates.plant_dt",
+                msg: format!(
+                    "{} s is outside {} s to {} s",
+                    self.plant_dt, PLANT_DT_RANGE.0, PLANT_DT_RANGE.1
+                ),
+            });
+        }
         let div = |hz: f64, name: &'static str| {
             if !(hz.is_finite() && hz > 0.0) {
                 return Err(SimError::Config(ParamError::NotPositive(name)));
             }
             let n = 1.0 / (hz * self.plant_dt);
             let r = n.round();
-            if r < 1.0 || (n - r).abs() > 1e-6 * r {
+            if !(1.0..=MAX_DIVISOR).contains(&r) || (n - r).abs() > 1e-6 * r {
                 return Err(SimError::Rates {
                     name,
                     hz,
@@ -234,7 +243,7 @@ impl Default for SimConfig {
 }
 
 /// Why a run could not be done.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum SimError {
     /// A parameter is not physical.
     Config(ParamError),
@@ -256,6 +265,13 @@ pub enum SimError {
     Trajectory(flexarm_core::TrajectoryError),
     /// The observer gain could not be designed for these rates and this arm.
     ObserverDesign,
+    /// A value of the configuration, as the `f32` controller would run it, is refused.
+    Input {
+        /// The scenario key (or command-line option) it comes from.
+        key: &'static str,
+        /// What is wrong and what is allowed.
+        msg: String,
+    },
     /// The controller went to its safe state.
     Fault {
         /// Why.
@@ -269,6 +285,7 @@ impl core::fmt::Display for SimError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::Config(e) => write!(f, "invalid configuration: {e}"),
+            Self::Input { key, msg } => write!(f, "`{key}`: {msg}"),
             Self::Rates { name, hz, plant_dt } => write!(
                 f,
                 "incompatible rates: {name} = {hz} Hz is not a whole number of plant steps of {plant_dt} s"
@@ -371,13 +388,10 @@ fn build(
                 &NoiseModel::default(),
             )
             .map_err(|_| SimError::ObserverDesign)?;
-            let off = PiezoGains {
-                k_c: 0.0,
-                ..PiezoGains::default()
-            };
+            // The controller always has a valid piezo law; with the loop off it is never stepped.
             let c = Controller::new(
                 motor,
-                piezo_law(cfg.piezo.unwrap_or(off)),
+                piezo_law(cfg.piezo.unwrap_or_default()),
                 patch32,
                 Observer::new(
                     gain.cast::<f32>(),
@@ -398,24 +412,147 @@ fn build(
     })
 }
 
+/// The plant step's range [s]: 0.1 µs (a thousandth of the 10 kHz piezo period) to 10 ms.
+pub const PLANT_DT_RANGE: (f64, f64) = (1e-7, 1e-2);
+/// Most plant steps in one loop period.
+const MAX_DIVISOR: f64 = 1e6;
+/// Most plant steps in one run: about a minute of computing at the default rates' 0.2 µs
+/// per RK4 step and motor sample.
+pub const MAX_PLANT_STEPS: f64 = 2e8;
+/// Most motor samples a run keeps in memory (about 170 bytes each, so 170 MB): a longer run
+/// is refused up front with the size it would need.
+pub const MAX_RECORDED_SAMPLES: f64 = 1e6;
+
+/// Motor periods a run must hold at least: fewer give indices of nothing.
+pub const MIN_MOTOR_SAMPLES: f64 = 10.0;
+/// Motor periods a trajectory's ramp must last at least, so that the motor loop samples its
+/// acceleration.
+pub const MIN_RAMP_SAMPLES: f64 = 2.0;
+
+impl SimConfig {
+    /// The one check of a run's configuration, on the values the `f32` controller will really
+    /// run: the scenario loader applies it to the file, the command line again after its
+    /// overrides, and [`simulate`] before it starts.
+    pub fn validate(&self, traj: &JointTrajectory<f32>) -> Result<(), SimError> {
+        let input = |key: &'static str, msg: String| Err(SimError::Input { key, msg });
+        self.arm.validate().map_err(SimError::Config)?;
+        self.arm
+            .cast::<f32>()
+            .validate()
+            .map_err(SimError::Config)?;
+        if let Some(p) = &self.plant {
+            p.validate().map_err(SimError::Config)?;
+        }
+        self.gains.validate().map_err(SimError::Config)?;
+        self.limits.validate().map_err(SimError::Config)?;
+        let (motor_div, piezo_div) = self.rates.divisors()?;
+        let motor_dt = self.rates.plant_dt * motor_div as f64;
+        let piezo_dt = self.rates.plant_dt * piezo_div as f64;
+        for (key, v) in [
+            ("duration", self.duration),
+            ("tail_window", self.tail_window),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return input(key, format!("{v} s must be a finite number > 0"));
+            }
+        }
+        if self.tail_window > self.duration {
+            return input(
+                "tail_window",
+                format!(
+                    "{} s is longer than `duration` = {} s",
+                    self.tail_window, self.duration
+                ),
+            );
+        }
+        let steps = self.duration / self.rates.plant_dt;
+        if steps > MAX_PLANT_STEPS {
+            return input(
+                "duration",
+                format!(
+                    "{} s at a plant step of {} s is {steps:.3e} steps; at most {MAX_PLANT_STEPS:e}",
+                    self.duration, self.rates.plant_dt
+                ),
+            );
+        }
+        let samples = self.duration / motor_dt;
+        if samples > MAX_RECORDED_SAMPLES {
+            return input(
+                "duration",
+                format!(
+                    "{} s at {} Hz keeps {samples:.3e} motor samples ({:.0} MB); at most {MAX_RECORDED_SAMPLES:e}",
+                    self.duration,
+                    self.rates.motor_hz,
+                    samples * std::mem::size_of::<Sample>() as f64 / 1e6
+                ),
+            );
+        }
+        if self.duration < MIN_MOTOR_SAMPLES * motor_dt {
+            return input(
+                "duration",
+                format!(
+                    "{} s holds fewer than {MIN_MOTOR_SAMPLES} motor periods of {motor_dt} s",
+                    self.duration
+                ),
+            );
+        }
+        if self.tail_window < motor_dt {
+            return input(
+                "tail_window",
+                format!(
+                    "{} s is shorter than one motor period ({motor_dt} s)",
+                    self.tail_window
+                ),
+            );
+        }
+        if let JointTrajectory::Trapezoid(Trapezoid { profile, .. })
+        | JointTrajectory::Circle(Circle { profile, .. }) = traj
+            && f64::from(profile.ramp()) < MIN_RAMP_SAMPLES * motor_dt
+        {
+            return input(
+                "trajectory.ramp_time",
+                format!(
+                    "{} s is shorter than {MIN_RAMP_SAMPLES} motor periods of {motor_dt} s: the motor loop would not sample the move's acceleration",
+                    profile.ramp()
+                ),
+            );
+        }
+        if let Some(g) = self.piezo {
+            let law = PiezoLaw::new(&g, piezo_dt as f32, self.limits.v_a_max);
+            if !(g.k_c.is_finite() && g.k_c > 0.0) {
+                return input(
+                    "controller.k_c",
+                    format!("{} s as f32 must be finite and > 0", g.k_c),
+                );
+            }
+            if !law.is_valid() {
+                return input(
+                    "controller.cutoff_hz",
+                    format!(
+                        "{} Hz gives no usable derivative filter at the piezo period {piezo_dt} s (as f32)",
+                        g.cutoff_hz
+                    ),
+                );
+            }
+        }
+        let patch = self.patch.to_f32();
+        patch
+            .validate(self.arm.a2 as f32)
+            .map_err(|e| SimError::Input {
+                key: "piezo",
+                msg: format!("the patch as f32: {e}"),
+            })?;
+        Ok(())
+    }
+}
+
 /// Runs the closed loop from rest at `θ_d(0)`; `record` keeps one [`Sample`] per motor period.
 pub fn simulate(
     cfg: &SimConfig,
     traj: &JointTrajectory<f32>,
     record: bool,
 ) -> Result<(Summary, Vec<Sample>), SimError> {
-    cfg.arm.validate().map_err(SimError::Config)?;
-    if let Some(p) = &cfg.plant {
-        p.validate().map_err(SimError::Config)?;
-    }
-    cfg.gains.validate().map_err(SimError::Config)?;
-    cfg.limits.validate().map_err(SimError::Config)?;
-    if !(cfg.duration.is_finite() && cfg.duration > 0.0) {
-        return Err(SimError::Config(ParamError::NotPositive("duration")));
-    }
-    if !(cfg.tail_window.is_finite() && cfg.tail_window > 0.0) {
-        return Err(SimError::Config(ParamError::NotPositive("tail_window")));
-    }
+    cfg.validate(traj)?;
     let (motor_div, piezo_div) = cfg.rates.divisors()?;
     let dt = cfg.rates.plant_dt;
     let (motor_dt, piezo_dt) = (dt * motor_div as f64, dt * piezo_div as f64);
@@ -445,7 +582,10 @@ pub fn simulate(
                 Loop::Full { piezo, .. } => piezo
                     .as_mut()
                     .map_or(0.0, |p| f64::from(p.step(v_f as f32))),
-                Loop::Observer(c) => f64::from(c.piezo_step(v_f as f32)),
+                // With the piezo loop off its task does not run: the controller's command stays
+                // 0 V, which is what the plant gets and what its observer predicts with.
+                Loop::Observer(c) if cfg.piezo.is_some() => f64::from(c.piezo_step(v_f as f32)),
+                Loop::Observer(_) => 0.0,
             };
             v_a = match cfg.sensors.piezo_slew {
                 Some(rate) => v_a + (cmd - v_a).clamp(-rate * piezo_dt, rate * piezo_dt),

@@ -34,7 +34,7 @@ fn shipped_scenarios_run() {
             out.to_str().unwrap(),
             "--no-plots",
             "--duration",
-            "1",
+            "3.5",
         ]);
         assert!(ok, "{f}: {stderr}");
         assert!(stdout.contains("Eq. 37"), "{stdout}");
@@ -83,6 +83,29 @@ fn bad_input_is_one_readable_line() {
             "{name}: {stderr}"
         );
         assert!(!stderr.contains("panicked"));
+    }
+    // Command-line overrides pass the same checks as the file.
+    let path = format!("{}/scenarios/trapezoid.toml", env!("CARGO_MANIFEST_DIR"));
+    for (args, expect) in [
+        (
+            &["--duration", "1"][..],
+            "`tail_window`: 3 s is longer than `duration` = 1 s",
+        ),
+        (
+            &["--motor-hz", "0.5", "--duration", "4"][..],
+            "fewer than 10 motor periods",
+        ),
+        (&["--plant-dt", "1e-300"][..], "rates.plant_dt"),
+        (&["--duration", "1e5"][..], "at most"),
+    ] {
+        let mut a = vec!["run", &path, "--no-plots"];
+        a.extend_from_slice(args);
+        let (ok, _, stderr) = sim(&a);
+        assert!(
+            !ok && stderr.contains("command-line options") && stderr.contains(expect),
+            "{args:?}: {stderr}"
+        );
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
     }
     let (ok, _, stderr) = sim(&["run", "/no/such/file.toml"]);
     assert!(
