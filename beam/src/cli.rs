@@ -55,6 +55,63 @@ fn hz(o: &Optimum) -> String {
         .join(", ")
 }
 
+/// `grid.csv`: one row per patch with its best feasible gain, `J`, `J0`, `W0`, and the
+/// frequencies and slope differences of every mode kept. A value that was not computed is an
+/// empty field, and `status` says why; no field is NaN or infinite.
+fn grid_csv(s: &Sweep, w: &Weights, modes: usize) -> String {
+    let mut head = String::from("x_a_m,l_a_m,status,best_k_c_s,k_c_limit_s,J,J0,W0");
+    for j in 1..=modes {
+        let _ = write!(head, ",f{j}_hz");
+    }
+    for j in 1..=modes {
+        let _ = write!(head, ",slope_diff{j}");
+    }
+    let mut csv = head + "\n";
+    let num = |v: f64| {
+        if v.is_finite() {
+            format!("{v:e}")
+        } else {
+            String::new()
+        }
+    };
+    for (p, (k, j)) in s.points.iter().zip(s.best_per_point(w)) {
+        let status = if p.omega.len() < modes {
+            "modes failed"
+        } else if !j.is_finite() {
+            "no stable feasible gain"
+        } else {
+            "ok"
+        };
+        let _ = write!(
+            csv,
+            "{:.4},{:.4},{status},{},{},{},{},{}",
+            p.x_a,
+            p.l_a,
+            num(if j.is_finite() { s.gains[k] } else { f64::NAN }),
+            num(p.k_limit),
+            num(j),
+            num(p.j0.get(k).copied().unwrap_or(f64::NAN)),
+            num(p.w0),
+        );
+        for i in 0..modes {
+            let _ = write!(
+                csv,
+                ",{}",
+                num(p.omega.get(i).map_or(f64::NAN, |o| o / TAU))
+            );
+        }
+        for i in 0..modes {
+            let _ = write!(
+                csv,
+                ",{}",
+                num(p.slope_diff.get(i).copied().unwrap_or(f64::NAN))
+            );
+        }
+        csv.push('\n');
+    }
+    csv
+}
+
 /// What the optimum asks of the amplifier, and which bound on the gain is active.
 fn amplifier_note(model: &DesignModel, best: &Optimum, k_max: f64) -> String {
     let a = &model.amplifier;
@@ -318,28 +375,7 @@ pub fn run_optimize(
     }
 
     // Files.
-    let mut csv = String::from(
-        "x_a_m,l_a_m,best_k_c_s,k_c_limit_s,J,J0,W0,f1_hz,f2_hz,slope_diff1,slope_diff2\n",
-    );
-    let bpp = s.best_per_point(&w);
-    for (p, (k, j)) in s.points.iter().zip(&bpp) {
-        let g = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(f64::NAN);
-        let _ = writeln!(
-            csv,
-            "{:.4},{:.4},{},{:e},{:e},{:e},{:e},{:.6},{:.6},{:e},{:e}",
-            p.x_a,
-            p.l_a,
-            s.gains.get(*k).copied().unwrap_or(f64::NAN),
-            p.k_limit,
-            j,
-            g(&p.j0, *k),
-            p.w0,
-            g(&p.omega, 0) / TAU,
-            g(&p.omega, 1) / TAU,
-            g(&p.slope_diff, 0),
-            g(&p.slope_diff, 1),
-        );
-    }
+    let csv = grid_csv(&s, &w, model.mode_count());
     let write = |name: &str, text: &str| -> Result<(), Box<dyn Error>> {
         let path = out_dir.join(name);
         std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
@@ -352,7 +388,7 @@ pub fn run_optimize(
     )?;
     if plots {
         let kmin = o.k_c.iter().copied().fold(f64::INFINITY, f64::min);
-        let j: Vec<f64> = bpp.iter().map(|b| b.1).collect();
+        let j: Vec<f64> = s.best_per_point(&w).iter().map(|b| b.1).collect();
         plot::heat_map(
             &out_dir.join("heatmap.svg"),
             &s,
@@ -419,6 +455,50 @@ mod tests {
         let r = run_optimize(Some(&dir.join("missing.toml")), &dir, false);
         assert!(r.is_err_and(|e| e.to_string().contains("cannot read")));
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn grid_has_a_column_per_mode_and_no_nan() {
+        for (modes, zeta, lambda, speed) in [
+            (1, "[0.07]", "[20.0]", "[0.2]"),
+            (
+                3,
+                "[0.07, 0.03, 0.02]",
+                "[20.0, 10.0, 5.0]",
+                "[0.2, 0.02, 0.01]",
+            ),
+        ] {
+            let dir = std::env::temp_dir()
+                .join(format!("flexarm-beam-modes{modes}-{}", std::process::id()));
+            let _ = std::fs::create_dir_all(&dir);
+            let cfg = dir.join("modes.toml");
+            let _ = std::fs::write(
+                &cfg,
+                format!(
+                    "[beam]\nzeta = {zeta}\n[optimize]\nlambda = {lambda}\nstep = 0.1\nmin_length = 0.1\nk_c = [1.0, 10.0, 1000.0]\nrefine = false\n[amplifier]\nreference_tip_speed = {speed}\n[sensitivity]\nenabled = false\n"
+                ),
+            );
+            let r = run_optimize(Some(&cfg), &dir, false);
+            assert!(r.is_ok(), "{r:?}");
+            let csv = std::fs::read_to_string(dir.join("grid.csv")).unwrap_or_default();
+            let head = csv.lines().next().unwrap_or("");
+            assert!(head.contains(&format!("f{modes}_hz")), "{head}");
+            assert!(!head.contains(&format!("f{}_hz", modes + 1)), "{head}");
+            assert_eq!(
+                head.split(',').count(),
+                8 + 2 * modes,
+                "one frequency and one slope per mode: {head}"
+            );
+            let lower = csv.to_lowercase();
+            assert!(!lower.contains("nan") && !lower.contains("inf"), "{csv}");
+            // Gains above the amplifier's limit are infeasible: an empty field and a status.
+            assert!(
+                csv.lines()
+                    .skip(1)
+                    .all(|l| l.split(',').count() == 8 + 2 * modes)
+            );
+            let _ = std::fs::remove_dir_all(&dir);
+        }
     }
 
     #[test]

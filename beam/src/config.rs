@@ -8,13 +8,120 @@ use flexarm_core::control::piezo::PiezoMaterial;
 use serde::Deserialize;
 use std::fmt;
 
+/// Largest tip mass, in bare-beam masses, that the configuration accepts: the exact solution's
+/// root bracketing is checked against the finite elements up to it
+/// (`fem::payload_range`). Beyond it the first mode's root can fall below the scan's start.
+pub const MAX_TIP_MASS_RATIO: f64 = 100.0;
+/// Largest tip rotary inertia, in units of the bare beam's `m L²`, likewise checked.
+pub const MAX_TIP_INERTIA_RATIO: f64 = 10.0;
+
+/// Most patches in the grid.
+const MAX_PATCHES: f64 = 50_000.0;
+/// Most `(patch, gain)` evaluations of the grid.
+const MAX_EVALUATIONS: f64 = 5e6;
+
+/// One line from a TOML error: `line N: message`, with `` `table.key`: `` when the line
+/// holds a key.
+pub fn toml_error(text: &str, e: &toml::de::Error) -> String {
+    let line = e
+        .span()
+        .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+    let msg = e.message().trim().replace('\n', " ");
+    let Some(l) = line else {
+        return msg;
+    };
+    // The key on that line, under the last table header above it.
+    let mut table = String::new();
+    let mut key = None;
+    for (i, raw) in text.lines().enumerate().take(l) {
+        let t = raw.trim();
+        if let Some(h) = t.strip_prefix('[').and_then(|h| h.split(']').next()) {
+            table = h.trim().to_string();
+        } else if i + 1 == l {
+            key = t.split_once('=').map(|(k, _)| k.trim().to_string());
+        }
+    }
+    match key.filter(|k| !k.is_empty()) {
+        Some(k) if table.is_empty() => format!("line {l}: `{k}`: {msg}"),
+        Some(k) => format!("line {l}: `{table}.{k}`: {msg}"),
+        None => format!("line {l}: {msg}"),
+    }
+}
+
+/// An error about the TOML file `path` (of content `text`) as `<file>:<line>: <message>`: the
+/// line a `line N: ` prefix gives, else the line of the key (or table) the message names.
+pub fn at_line(path: &std::path::Path, text: &str, msg: &str) -> String {
+    let numbered = msg.strip_prefix("line ").and_then(|rest| {
+        let (n, m) = rest.split_once(": ")?;
+        Some((n.parse::<usize>().ok()?, m.to_string()))
+    });
+    match numbered.or_else(|| {
+        key_of(msg)
+            .and_then(|k| locate(text, &k))
+            .map(|l| (l, msg.to_string()))
+    }) {
+        Some((l, m)) => format!("{}:{l}: {m}", path.display()),
+        None => format!("{}: {msg}", path.display()),
+    }
+}
+
+/// The key an error message names: its first `` `key` `` or `[table]`.
+pub fn key_of(msg: &str) -> Option<String> {
+    // "[table]: ... `leaf` ..." names `table.leaf`.
+    if let Some(rest) = msg.strip_prefix('[')
+        && let Some((table, tail)) = rest.split_once("]: ")
+        && let Some(leaf) = tail.split('`').nth(1)
+    {
+        return Some(format!("{table}.{leaf}"));
+    }
+    let tick = msg.find('`').and_then(|a| {
+        let b = msg[a + 1..].find('`')?;
+        Some((a, msg[a + 1..a + 1 + b].to_string()))
+    });
+    let table = msg.find('[').and_then(|a| {
+        let b = msg[a + 1..].find(']')?;
+        Some((a, msg[a + 1..a + 1 + b].to_string()))
+    });
+    match (tick, table) {
+        (Some(t), Some(b)) => Some(if t.0 < b.0 { t.1 } else { b.1 }),
+        (t, b) => t.or(b).map(|x| x.1),
+    }
+}
+
+/// The 1-based line of a dotted key (`controller.k_c`, `duration`) or of a table header
+/// (`arm`) in a scenario's TOML text; for a key that is not written there, its table's header.
+pub fn locate(text: &str, key: &str) -> Option<usize> {
+    let key = key.trim_end_matches("[]");
+    let (table, leaf) = match key.rsplit_once('.') {
+        Some((t, l)) => (t, l),
+        None => ("", key),
+    };
+    let mut current = String::new();
+    let mut header = None;
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.trim();
+        if let Some(h) = line.strip_prefix('[').and_then(|l| l.split(']').next()) {
+            current = h.trim().to_string();
+            if current == key || current == table {
+                header = header.or(Some(i + 1));
+            }
+            continue;
+        }
+        let name = line.split('=').next().unwrap_or("").trim();
+        if current == table && name == leaf && line.contains('=') {
+            return Some(i + 1);
+        }
+    }
+    header
+}
+
 /// A refused configuration: the message names the key and the rule.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ConfigError(pub String);
 
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "configuration: {}", self.0)
+        f.write_str(&self.0)
     }
 }
 
@@ -238,41 +345,90 @@ fn positive(name: &str, v: f64) -> Result<(), ConfigError> {
     })
 }
 
-fn non_negative(name: &str, v: f64) -> Result<(), ConfigError> {
-    check(v.is_finite() && v >= 0.0, || {
-        format!("`{name}` = {v} must be a finite number >= 0")
+/// A number as a person reads it: plain, or in exponent form when very large or small.
+fn num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-3..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        let s = format!("{v:.6}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    }
+}
+
+/// `lo ≤ v ≤ hi` (physical ranges: beyond them the model's assumptions or its numerics end).
+fn within(name: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<(), ConfigError> {
+    within_because(name, v, lo, hi, unit, "")
+}
+
+/// [`within`] with the reason for the range.
+fn within_because(
+    name: &str,
+    v: f64,
+    lo: f64,
+    hi: f64,
+    unit: &str,
+    why: &str,
+) -> Result<(), ConfigError> {
+    check(v.is_finite() && v >= lo && v <= hi, || {
+        format!(
+            "`{name}` = {} {unit} is outside {} to {} {unit}{why}",
+            num(v),
+            num(lo),
+            num(hi)
+        )
     })
 }
+
+/// Physical ranges, SI: moduli from soft polymers to diamond, thicknesses from a film to a
+/// plate, densities from foams to tungsten, piezo constants around the known materials'.
+const MODULUS: (f64, f64) = (1e6, 1.2e12);
+const THICKNESS: (f64, f64) = (1e-6, 0.05);
+const DENSITY: (f64, f64) = (10.0, 25_000.0);
 
 impl Config {
     /// Parses and validates a TOML text.
     pub fn from_toml(text: &str) -> Result<Self, ConfigError> {
-        let c: Config = toml::from_str(text).map_err(|e| ConfigError(e.to_string()))?;
+        let c: Config = toml::from_str(text).map_err(|e| ConfigError(toml_error(text, &e)))?;
         c.validate()?;
         Ok(c)
     }
 
-    /// Reads, parses and validates a file.
+    /// Reads, parses and validates a file. Errors read `<file>:<line>: <key>: <what is wrong>`.
     pub fn load(path: &std::path::Path) -> Result<Self, ConfigError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| ConfigError(format!("cannot read {}: {e}", path.display())))?;
-        Self::from_toml(&text).map_err(|e| ConfigError(format!("{}: {}", path.display(), e.0)))
+        Self::from_toml(&text).map_err(|e| ConfigError(at_line(path, &text, &e.0)))
     }
 
     /// Checks every value.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let b = &self.beam;
-        for (n, v) in [
-            ("beam.length", b.length),
-            ("beam.e_b", b.e_b),
-            ("beam.t_b", b.t_b),
-            ("beam.width", b.width),
-            ("beam.rho_b", b.rho_b),
-        ] {
-            positive(n, v)?;
-        }
-        non_negative("beam.tip_mass", b.tip_mass)?;
-        non_negative("beam.tip_inertia", b.tip_inertia)?;
+        within("beam.length", b.length, 0.01, 10.0, "m")?;
+        within("beam.e_b", b.e_b, MODULUS.0, MODULUS.1, "Pa")?;
+        within("beam.t_b", b.t_b, THICKNESS.0, THICKNESS.1, "m")?;
+        within("beam.width", b.width, 1e-4, 1.0, "m")?;
+        within("beam.rho_b", b.rho_b, DENSITY.0, DENSITY.1, "kg/m^3")?;
+        let beam_mass = b.rho_b * b.width * b.t_b * b.length;
+        within_because(
+            "beam.tip_mass",
+            b.tip_mass,
+            0.0,
+            MAX_TIP_MASS_RATIO * beam_mass,
+            "kg",
+            " (100 times the bare beam's mass: the range the mode solver is verified on)",
+        )?;
+        within_because(
+            "beam.tip_inertia",
+            b.tip_inertia,
+            0.0,
+            MAX_TIP_INERTIA_RATIO * beam_mass * b.length * b.length,
+            "kg m^2",
+            " (10 m L^2 of the bare beam: the range the mode solver is verified on)",
+        )?;
         check((1..=4).contains(&b.zeta.len()), || {
             format!(
                 "`beam.zeta` needs 1 to 4 damping ratios, got {}",
@@ -285,24 +441,18 @@ impl Config {
             })?;
         }
         let p = &self.piezo;
-        for (n, v) in [
-            ("piezo.e_c", p.e_c),
-            ("piezo.t_c", p.t_c),
-            ("piezo.rho_c", p.rho_c),
-            ("piezo.e_f", p.e_f),
-            ("piezo.t_f", p.t_f),
-            ("piezo.rho_f", p.rho_f),
-            ("piezo.g31", p.g31),
-            ("piezo.c_area", p.c_area),
-        ] {
-            positive(n, v)?;
-        }
-        check(p.d31.is_finite() && p.d31 != 0.0, || {
-            format!("`piezo.d31` = {} must be finite and non-zero", p.d31)
-        })?;
+        within("piezo.e_c", p.e_c, MODULUS.0, MODULUS.1, "Pa")?;
+        within("piezo.e_f", p.e_f, MODULUS.0, MODULUS.1, "Pa")?;
+        within("piezo.t_c", p.t_c, THICKNESS.0, THICKNESS.1, "m")?;
+        within("piezo.t_f", p.t_f, THICKNESS.0, THICKNESS.1, "m")?;
+        within("piezo.rho_c", p.rho_c, DENSITY.0, DENSITY.1, "kg/m^3")?;
+        within("piezo.rho_f", p.rho_f, DENSITY.0, DENSITY.1, "kg/m^3")?;
+        within("piezo.g31", p.g31, 1e-4, 10.0, "V m/N")?;
+        within("piezo.c_area", p.c_area, 1e-9, 1e-1, "F/m^2")?;
+        within("|piezo.d31|", p.d31.abs(), 1e-13, 1e-8, "m/V")?;
         let o = &self.optimize;
-        non_negative("optimize.alpha", o.alpha)?;
-        non_negative("optimize.beta_c", o.beta_c)?;
+        within("optimize.alpha", o.alpha, 0.0, 1e12, "")?;
+        within("optimize.beta_c", o.beta_c, 0.0, 1e12, "")?;
         check(o.lambda.len() == b.zeta.len(), || {
             format!(
                 "`optimize.lambda` has {} weights but `beam.zeta` keeps {} modes",
@@ -312,6 +462,7 @@ impl Config {
         })?;
         for l in &o.lambda {
             positive("optimize.lambda[]", *l)?;
+            within("optimize.lambda[]", *l, 0.0, 1e6, "")?;
         }
         positive("optimize.step", o.step)?;
         check(o.step <= b.length / 2.0, || {
@@ -323,22 +474,39 @@ impl Config {
                 o.step
             )
         })?;
-        positive("optimize.k_max", o.k_max)?;
+        // Bounded work: the modes are solved once per patch (about 80 µs), `J0` once per patch
+        // and gain (about 1 µs).
+        let n = (b.length / o.step + 1e-9).floor();
+        let patches = n * (n + 1.0) / 2.0;
+        check(patches <= MAX_PATCHES, || {
+            format!(
+                "`optimize.step` = {} gives {patches:.0} patches; at most {MAX_PATCHES} (about 4 s of mode solving)",
+                o.step
+            )
+        })?;
+        check(patches * o.k_c.len() as f64 <= MAX_EVALUATIONS, || {
+            format!(
+                "`optimize.k_c` has {} gains: {:.0} evaluations with {patches:.0} patches; at most {MAX_EVALUATIONS}",
+                o.k_c.len(),
+                patches * o.k_c.len() as f64
+            )
+        })?;
+        within("optimize.k_max", o.k_max, 1e-6, 1e7, "s")?;
         positive("optimize.min_length", o.min_length)?;
         check(o.min_length < b.length, || {
             "`optimize.min_length` must be below `beam.length`".into()
         })?;
         check(!o.k_c.is_empty(), || "`optimize.k_c` is empty".into())?;
         for (i, k) in o.k_c.iter().enumerate() {
-            check(k.is_finite() && *k > 0.0 && *k <= o.k_max, || {
+            check(k.is_finite() && *k >= 1e-6 && *k <= o.k_max, || {
                 format!(
-                    "`optimize.k_c[{i}]` = {k} must lie in (0, k_max = {}]",
+                    "`optimize.k_c[{i}]` = {k} must lie in [1e-6, k_max = {}] s",
                     o.k_max
                 )
             })?;
         }
         let a = &self.amplifier;
-        positive("amplifier.v_max", a.v_max)?;
+        within("amplifier.v_max", a.v_max, 1e-3, 1e5, "V")?;
         check(a.reference_tip_speed.len() == b.zeta.len(), || {
             format!(
                 "`amplifier.reference_tip_speed` has {} speeds but `beam.zeta` keeps {} modes",
@@ -348,22 +516,42 @@ impl Config {
         })?;
         for r in &a.reference_tip_speed {
             positive("amplifier.reference_tip_speed[]", *r)?;
+            within("amplifier.reference_tip_speed[]", *r, 0.0, 100.0, "m/s")?;
         }
         let s = &self.sensitivity;
+        for (name, list) in [
+            ("sensitivity.alpha", &s.alpha),
+            ("sensitivity.beta_c", &s.beta_c),
+            ("sensitivity.rho_b", &s.rho_b),
+            ("sensitivity.k_max", &s.k_max),
+            ("sensitivity.tip_mass", &s.tip_mass),
+        ] {
+            // Each value re-optimizes (the density and tip-mass rows sweep the grid again).
+            check(list.len() <= 20, || {
+                format!("`{name}` has {} values; at most 20", list.len())
+            })?;
+        }
         for v in &s.alpha {
-            non_negative("sensitivity.alpha[]", *v)?;
+            within("sensitivity.alpha[]", *v, 0.0, 1e12, "")?;
         }
         for v in &s.beta_c {
-            non_negative("sensitivity.beta_c[]", *v)?;
+            within("sensitivity.beta_c[]", *v, 0.0, 1e12, "")?;
         }
         for v in &s.rho_b {
-            positive("sensitivity.rho_b[]", *v)?;
+            within("sensitivity.rho_b[]", *v, DENSITY.0, DENSITY.1, "kg/m^3")?;
         }
         for v in &s.k_max {
-            positive("sensitivity.k_max[]", *v)?;
+            within("sensitivity.k_max[]", *v, 1e-6, 1e7, "s")?;
         }
         for v in &s.tip_mass {
-            non_negative("sensitivity.tip_mass[]", *v)?;
+            within_because(
+                "sensitivity.tip_mass[]",
+                *v,
+                0.0,
+                MAX_TIP_MASS_RATIO * b.rho_b * b.width * b.t_b * b.length,
+                "kg",
+                " (100 times the bare beam's mass)",
+            )?;
         }
         Ok(())
     }
@@ -471,6 +659,18 @@ mod tests {
                 "amplifier.reference_tip_speed[]",
             ),
             ("[amplifier]\nenforce = 1", "enforce"),
+            ("[beam]\nrho_b = 1e30", "beam.rho_b"),
+            ("[beam]\ne_b = 1e30", "beam.e_b"),
+            ("[beam]\ntip_mass = 1e9", "beam.tip_mass"),
+            ("[beam]\ntip_inertia = 1.0", "beam.tip_inertia"),
+            ("[piezo]\nd31 = 1.0", "piezo.d31"),
+            ("[optimize]\nstep = 0.001", "patches"),
+            ("[optimize]\nk_c = [1e-9]", "k_c[0]"),
+            ("[optimize]\nk_max = 1e300", "optimize.k_max"),
+            (
+                "[sensitivity]\nalpha = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0, 17.0, 18.0, 19.0, 20.0]",
+                "sensitivity.alpha",
+            ),
             ("[beam", "TOML"),
         ] {
             match Config::from_toml(text) {

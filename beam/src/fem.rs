@@ -225,3 +225,49 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+mod payload_range {
+    use super::*;
+    use crate::config::{MAX_TIP_INERTIA_RATIO, MAX_TIP_MASS_RATIO};
+    use crate::section::Layers;
+    use crate::segmented::SegmentedBeam;
+
+    /// The exact solution's root bracketing holds up to the largest payload the configuration
+    /// accepts (`config::MAX_TIP_MASS_RATIO` times the bare beam's mass, and a rotary inertia
+    /// up to `MAX_TIP_INERTIA_RATIO` times its `m L²`): the same first four frequencies, in
+    /// order, as the finite elements, with the patch at several places.
+    #[test]
+    fn the_largest_accepted_payload_keeps_every_root() {
+        let layers = Layers::default();
+        let (b, p) = (layers.bare(), layers.patched());
+        let seg = |len: f64, s: crate::section::Section| Segment {
+            length: len,
+            ei: s.ei,
+            rho_a: s.rho_a,
+        };
+        let m = b.rho_a * 0.7;
+        for (tm, tj) in [
+            (MAX_TIP_MASS_RATIO * m, 0.0),
+            (0.0, MAX_TIP_INERTIA_RATIO * m * 0.49),
+            (MAX_TIP_MASS_RATIO * m, MAX_TIP_INERTIA_RATIO * m * 0.49),
+        ] {
+            for &(x_a, l_a) in &[(0.0, 0.3), (0.2, 0.3), (0.5, 0.2)] {
+                let segs = [seg(x_a, b), seg(l_a, p), seg(0.7 - x_a - l_a, b)];
+                let exact = SegmentedBeam::new(&segs, tm, tj)
+                    .and_then(|bm| bm.frequencies(4))
+                    .unwrap_or_default();
+                let Ok(fem) = fem_modes(&segs, tm, tj, 70, 4) else {
+                    unreachable!("FEM failed")
+                };
+                assert_eq!(exact.len(), 4, "tip {tm} kg, {tj} kg m²");
+                for (e, f) in exact.iter().zip(&fem.omega) {
+                    assert!(
+                        (f / e - 1.0).abs() < 1e-4,
+                        "tip {tm} kg, {tj} kg m², patch ({x_a}, {l_a}): {e} vs {f}"
+                    );
+                }
+            }
+        }
+    }
+}

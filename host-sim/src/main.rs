@@ -275,8 +275,12 @@ fn main_result(cli: Cli) -> Result<()> {
             no_plots,
             force,
         } => {
-            if runs == 0 {
-                return Err("--runs must be at least 1".into());
+            // About 5 ms of computing per run: 100 000 runs per level take some 15 minutes.
+            if !(1..=montecarlo::MAX_RUNS).contains(&runs) {
+                return Err(format!(
+                    "--runs {runs} must lie in 1 to {} (each run is a 5 s simulation)",
+                    montecarlo::MAX_RUNS
+                ));
             }
             let batches = montecarlo::run(&[0.1, 0.2], runs, seed, true);
             let report = montecarlo::report(&batches);
@@ -320,7 +324,25 @@ fn refuse_foreign(path: &Path, force: bool, ours: fn(&str) -> bool) -> Result<()
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // Help and version print as usual; a command-line error is one line and exit status 1,
+    // like every other bad input.
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            let text = e.render().to_string();
+            let first = text
+                .lines()
+                .next()
+                .unwrap_or("invalid command line")
+                .trim_start_matches("error: ");
+            eprintln!("error: {first} (flexarm-sim --help lists the commands and options)");
+            return ExitCode::FAILURE;
+        }
+    };
     match main_result(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

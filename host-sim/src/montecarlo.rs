@@ -64,6 +64,9 @@ fn within(s: &Summary) -> bool {
     s.max_error <= bounds::MAX_ERROR && s.tail_error_abs.iter().all(|e| *e <= bounds::TAIL_ERROR)
 }
 
+/// Most runs per perturbation level the command accepts.
+pub const MAX_RUNS: usize = 100_000;
+
 /// Runs `runs` perturbed copies of the paper's trapezoid move under Eq. 7 + piezo, at each level.
 pub fn run(levels: &[f64], runs: usize, seed: u64, progress: bool) -> Vec<Batch> {
     let traj = JointTrajectory::Trapezoid(Trapezoid::paper());

@@ -179,22 +179,27 @@ pub struct Scenario {
     pub trajectory: JointTrajectory<f32>,
 }
 
-/// Reads and checks a scenario file.
+/// Reads and checks a scenario file. Errors read `<file>:<line>: <key>: <what is wrong>`, the
+/// line being the key's (or its table's) when the error names one.
 pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| ScenarioError(format!("{}: {e}", path.display())))?;
-    parse(&text).map_err(|e| ScenarioError(format!("{}: {}", path.display(), e.0)))
+    parse(&text).map_err(|e| ScenarioError(flexarm_beam::config::at_line(path, &text, &e.0)))
 }
 
-/// One line from a TOML error: its line number and message.
-fn toml_error(text: &str, e: &toml::de::Error) -> ScenarioError {
-    let line = e
-        .span()
-        .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
-    let msg = e.message().trim().replace('\n', " ");
-    ScenarioError(match line {
-        Some(l) => format!("line {l}: {msg}"),
-        None => msg,
+/// A parameter error of one table as `` `table.key`: what is wrong ``.
+fn param(table: &str, e: flexarm_core::ParamError) -> ScenarioError {
+    use flexarm_core::ParamError as P;
+    ScenarioError(match e {
+        P::NotFinite(n) => format!("`{table}.{n}`: must be a finite number"),
+        P::NotPositive(n) => format!("`{table}.{n}`: must be a finite number > 0"),
+        P::Negative(n) => format!("`{table}.{n}`: must be >= 0"),
+        P::FrequenciesNotIncreasing => {
+            format!("`{table}.frequency_hz`: the modal frequencies must increase")
+        }
+        P::PatchOutsideLink => {
+            "`piezo`: the patch must lie on link 2 (0 <= x_a, 0 < l_a, x_a + l_a <= a2)".into()
+        }
     })
 }
 
@@ -212,7 +217,8 @@ fn positive(name: &str, x: f64) -> Result<f64, ScenarioError> {
 
 /// Parses a scenario from TOML text.
 pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
-    let f: File = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
+    let f: File = toml::from_str(text)
+        .map_err(|e| ScenarioError(flexarm_beam::config::toml_error(text, &e)))?;
     let mut cfg = SimConfig::default();
 
     // Arm.
@@ -243,8 +249,7 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
         }
         arm.modes = ModalData::uniform(arm.m2, arm.a2, omega, zeta);
     }
-    arm.validate()
-        .map_err(|e| ScenarioError(format!("[arm]: {e}")))?;
+    arm.validate().map_err(|e| param("arm", e))?;
     cfg.patch = flexarm_core::control::piezo::PiezoPatch::uniform(
         &flexarm_core::control::piezo::PiezoMaterial::default(),
         arm.m2,
@@ -285,9 +290,7 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
     if let Some(d) = c.d_delta {
         cfg.gains.d_delta = Vector2::new(d[0] as f32, d[1] as f32);
     }
-    cfg.gains
-        .validate()
-        .map_err(|e| ScenarioError(format!("[controller]: {e}")))?;
+    cfg.gains.validate().map_err(|e| param("controller", e))?;
     let k_c = c.k_c.unwrap_or(k_c);
     let cutoff = c
         .cutoff_hz
@@ -316,9 +319,7 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
     if let Some(v) = f.limits.v_a_max {
         cfg.limits.v_a_max = v as f32;
     }
-    cfg.limits
-        .validate()
-        .map_err(|e| ScenarioError(format!("[limits]: {e}")))?;
+    cfg.limits.validate().map_err(|e| param("limits", e))?;
     cfg.duration = positive("duration", f.duration.unwrap_or(cfg.duration))?;
     cfg.tail_window = positive("tail_window", f.tail_window.unwrap_or(cfg.tail_window))?;
     if cfg.tail_window > cfg.duration {
@@ -379,11 +380,14 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
         } => {
             let p = Trapezoid::<f32>::paper();
             let v2 = |v: [f64; 2]| Vector2::new(v[0] as f32, v[1] as f32);
-            let profile = Profile::new(
-                move_time.unwrap_or(2.0) as f32,
-                ramp_time.unwrap_or(0.5) as f32,
-            )
-            .map_err(terr)?;
+            let move_time = positive("trajectory.move_time", move_time.unwrap_or(2.0))?;
+            let ramp = positive("trajectory.ramp_time", ramp_time.unwrap_or(0.5))?;
+            if 2.0 * ramp > move_time {
+                return err(format!(
+                    "`trajectory.ramp_time` = {ramp} s must be at most half the `move_time` = {move_time} s"
+                ));
+            }
+            let profile = Profile::new(move_time as f32, ramp as f32).map_err(terr)?;
             let tr = Trapezoid {
                 start: start.map_or(p.start, v2),
                 amplitude: amplitude.map_or(p.amplitude, v2),
@@ -410,6 +414,14 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             margin,
         } => {
             let centre = centre.unwrap_or([0.65, 0.0]);
+            let radius = positive("trajectory.radius", radius.unwrap_or(0.2))?;
+            let period = positive("trajectory.period", period.unwrap_or(4.0))?;
+            let ramp = positive("trajectory.ramp_time", ramp_time.unwrap_or(0.5))?;
+            if 2.0 * ramp > period {
+                return err(format!(
+                    "`trajectory.ramp_time` = {ramp} s must be at most half the `period` = {period} s"
+                ));
+            }
             let margin = margin.unwrap_or(0.05);
             if !(margin.is_finite() && margin >= 0.0) {
                 return err(format!(
@@ -419,14 +431,10 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             let circle = Circle::new(
                 kin,
                 Vector2::new(centre[0] as f32, centre[1] as f32),
-                radius.unwrap_or(0.2) as f32,
+                radius as f32,
                 start_phase.unwrap_or(std::f64::consts::FRAC_PI_2) as f32,
                 clockwise.unwrap_or(true),
-                Profile::new(
-                    period.unwrap_or(4.0) as f32,
-                    ramp_time.unwrap_or(0.5) as f32,
-                )
-                .map_err(terr)?,
+                Profile::new(period as f32, ramp as f32).map_err(terr)?,
                 match elbow {
                     Some(ElbowSpec::Negative) => Elbow::Negative,
                     _ => Elbow::Positive,

@@ -522,7 +522,10 @@ impl SimConfig {
             if !(g.k_c.is_finite() && g.k_c > 0.0) {
                 return input(
                     "controller.k_c",
-                    format!("{} s as f32 must be finite and > 0", g.k_c),
+                    format!(
+                        "rounds to {} s in f32, the controller's type; it must be a finite number > 0",
+                        g.k_c
+                    ),
                 );
             }
             if !law.is_valid() {

@@ -70,7 +70,11 @@ fn bad_input_is_one_readable_line() {
             "[trajectory]\nkind = \"trapezoid\"\n[rates]\npiezo_hz = 7000\n",
             "incompatible rates",
         ),
-        ("syntax.toml", "[trajectory\nkind = 1\n", "line"),
+        (
+            "syntax.toml",
+            "[trajectory\nkind = 1\n",
+            ".toml:1: unclosed table",
+        ),
     ];
     for (name, text, expect) in cases {
         let p = scratch(name, text);
@@ -410,4 +414,69 @@ fn firmware_params_never_overwrites_its_input_or_a_foreign_file() {
     assert_eq!(std::fs::read_to_string(&hand).unwrap(), "# my own notes\n");
     assert!(!names_in(&dir).iter().any(|n| n.contains(".tmp-")));
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn errors_name_the_file_the_line_and_the_key() {
+    for (name, text, want) in [
+        (
+            "kc.toml",
+            "name = \"x\"\n[trajectory]\nkind = \"trapezoid\"\n\n[controller]\npiezo = true\nk_c = 1e39\n",
+            ":7: `controller.k_c`",
+        ),
+        (
+            "radius.toml",
+            "[trajectory]\nkind = \"circle\"\nradius = -0.2\n",
+            ":3: `trajectory.radius`",
+        ),
+        (
+            "arm.toml",
+            "[trajectory]\nkind = \"trapezoid\"\n\n[arm]\nm1 = -2\n",
+            ":5: `arm.m1`",
+        ),
+        (
+            "ramp.toml",
+            "[trajectory]\nkind = \"trapezoid\"\nmove_time = 1.0\nramp_time = 0.8\n",
+            ":4: `trajectory.ramp_time`",
+        ),
+        (
+            "syntax.toml",
+            "[trajectory]\nkind = \"trapezoid\"\nmove_time = \n",
+            ":3: ",
+        ),
+    ] {
+        let p = scratch(name, text);
+        let (ok, _, stderr) = sim(&["run", p.to_str().unwrap(), "--no-plots"]);
+        let want = format!("error: {}{want}", p.display());
+        assert!(
+            !ok && stderr.starts_with(&want),
+            "{name}: want {want:?}, got {stderr:?}"
+        );
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    }
+}
+
+#[test]
+fn command_line_mistakes_are_one_line_and_exit_1() {
+    for args in [
+        &["run", "--durration", "3", "x.toml"][..],
+        &["paper", "--duration", "abc"][..],
+        &["frobnicate"][..],
+        &["montecarlo", "--runs", "-3"][..],
+        &["montecarlo", "--runs", "100000000000"][..],
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_flexarm-sim"))
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr}");
+        assert!(stderr.starts_with("error: "), "{stderr}");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_flexarm-sim"))
+        .arg("--help")
+        .output()
+        .unwrap();
+    assert!(out.status.success() && String::from_utf8_lossy(&out.stdout).contains("paper"));
 }
