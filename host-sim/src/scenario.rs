@@ -66,28 +66,65 @@ struct File {
     piezo: Option<toml::Table>,
 }
 
+/// The `[trajectory]` table: a plain struct (not a tagged enum) so that TOML errors keep the
+/// line of the key they are about; keys of another `kind` are refused after reading.
 #[derive(Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
-enum TrajectorySpec {
-    Trapezoid {
-        start: Option<[f64; 2]>,
-        amplitude: Option<[f64; 2]>,
-        move_time: Option<f64>,
-        ramp_time: Option<f64>,
-    },
-    Circle {
-        centre: Option<[f64; 2]>,
-        radius: Option<f64>,
-        period: Option<f64>,
-        ramp_time: Option<f64>,
-        start_phase: Option<f64>,
-        clockwise: Option<bool>,
-        elbow: Option<ElbowSpec>,
-        margin: Option<f64>,
-    },
-    Hold {
-        angles: [f64; 2],
-    },
+#[serde(deny_unknown_fields)]
+struct TrajectorySpec {
+    kind: KindSpec,
+    start: Option<[f64; 2]>,
+    amplitude: Option<[f64; 2]>,
+    move_time: Option<f64>,
+    ramp_time: Option<f64>,
+    centre: Option<[f64; 2]>,
+    radius: Option<f64>,
+    period: Option<f64>,
+    start_phase: Option<f64>,
+    clockwise: Option<bool>,
+    elbow: Option<ElbowSpec>,
+    margin: Option<f64>,
+    angles: Option<[f64; 2]>,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum KindSpec {
+    Trapezoid,
+    Circle,
+    Hold,
+}
+
+impl TrajectorySpec {
+    /// Refuses a key that belongs to another kind of trajectory.
+    fn keys_fit(&self) -> Result<(), ScenarioError> {
+        let set = [
+            ("start", self.start.is_some(), KindSpec::Trapezoid),
+            ("amplitude", self.amplitude.is_some(), KindSpec::Trapezoid),
+            ("move_time", self.move_time.is_some(), KindSpec::Trapezoid),
+            ("centre", self.centre.is_some(), KindSpec::Circle),
+            ("radius", self.radius.is_some(), KindSpec::Circle),
+            ("period", self.period.is_some(), KindSpec::Circle),
+            ("start_phase", self.start_phase.is_some(), KindSpec::Circle),
+            ("clockwise", self.clockwise.is_some(), KindSpec::Circle),
+            ("elbow", self.elbow.is_some(), KindSpec::Circle),
+            ("margin", self.margin.is_some(), KindSpec::Circle),
+            ("angles", self.angles.is_some(), KindSpec::Hold),
+        ];
+        for (key, present, kind) in set {
+            if present && kind != self.kind {
+                return err(format!(
+                    "`trajectory.{key}` is not a key of this `kind` of trajectory"
+                ));
+            }
+        }
+        if self.ramp_time.is_some() && self.kind == KindSpec::Hold {
+            return err("`trajectory.ramp_time` is not a key of a `hold` trajectory");
+        }
+        if self.kind == KindSpec::Hold && self.angles.is_none() {
+            return err("`trajectory.angles`: a `hold` trajectory needs its angles [rad]");
+        }
+        Ok(())
+    }
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -215,11 +252,111 @@ fn positive(name: &str, x: f64) -> Result<f64, ScenarioError> {
     }
 }
 
+/// `lo ≤ v ≤ hi` for a value the file gives, naming its key.
+fn within(key: &str, v: Option<f64>, lo: f64, hi: f64, unit: &str) -> Result<(), ScenarioError> {
+    match v {
+        Some(x) if !(x.is_finite() && x >= lo && x <= hi) => err(format!(
+            "`{key}` = {x} {unit} is outside {lo:e} to {hi:e} {unit}"
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Physical ranges of the values a file gives (SI): beyond them the model, the numerics or
+/// the `f32` controller stop being meaningful. The finer rules (f32 conversion, the rates'
+/// relations, the run's size) are `SimConfig::validate`'s.
+fn ranges(f: &File) -> Result<(), ScenarioError> {
+    let a = &f.arm;
+    for (key, v) in [("arm.a1", a.a1), ("arm.a2", a.a2)] {
+        within(key, v, 1e-2, 10.0, "m")?;
+    }
+    for (key, v) in [("arm.m1", a.m1), ("arm.m2", a.m2), ("arm.m_h2", a.m_h2)] {
+        within(key, v, 0.0, 1e3, "kg")?;
+    }
+    for (key, v) in [
+        ("arm.i_1", a.i_1),
+        ("arm.i_h1", a.i_h1),
+        ("arm.i_h2", a.i_h2),
+        ("arm.i_2_extra", a.i_2_extra),
+    ] {
+        within(key, v, 0.0, 1e3, "kg m^2")?;
+    }
+    for v in a.frequency_hz.iter().flatten() {
+        within("arm.frequency_hz", Some(*v), 1e-2, 1e3, "Hz")?;
+    }
+    for v in a.zeta.iter().flatten() {
+        within("arm.zeta", Some(*v), 0.0, 1.0, "")?;
+    }
+    let c = &f.controller;
+    within("controller.k_c", c.k_c, 0.0, 1e6, "s")?;
+    within("controller.cutoff_hz", c.cutoff_hz, 1e-2, 1e6, "Hz")?;
+    for (key, list) in [("controller.kp", c.kp), ("controller.lambda", c.lambda)] {
+        for v in list.iter().flatten() {
+            within(key, Some(*v), 0.0, 1e6, "")?;
+        }
+    }
+    for v in c.d_delta.iter().flatten() {
+        within("controller.d_delta", Some(*v), 0.0, 1e6, "1/s")?;
+    }
+    let r = &f.rates;
+    within("rates.motor_hz", r.motor_hz, 1e-3, 1e6, "Hz")?;
+    within("rates.piezo_hz", r.piezo_hz, 1e-3, 1e7, "Hz")?;
+    for v in f.limits.tau_max.iter().flatten() {
+        within("limits.tau_max", Some(*v), 0.0, 1e4, "N m")?;
+    }
+    within("limits.v_a_max", f.limits.v_a_max, 0.0, 1e5, "V")?;
+    let s = &f.sensors;
+    within(
+        "sensors.encoder_counts",
+        s.encoder_counts,
+        4.0,
+        1e9,
+        "counts/rev",
+    )?;
+    within("sensors.adc_range", s.adc_range, 1e-3, 1e3, "V")?;
+    within("sensors.film_noise", s.film_noise, 0.0, 1e3, "V")?;
+    within("sensors.piezo_slew", s.piezo_slew, 1.0, 1e12, "V/s")?;
+    let t = &f.trajectory;
+    for (key, v) in [
+        ("trajectory.move_time", t.move_time),
+        ("trajectory.ramp_time", t.ramp_time),
+        ("trajectory.period", t.period),
+    ] {
+        within(key, v, 0.0, 1e5, "s")?;
+    }
+    for (key, list) in [
+        ("trajectory.start", t.start),
+        ("trajectory.amplitude", t.amplitude),
+        ("trajectory.angles", t.angles),
+    ] {
+        for v in list.iter().flatten() {
+            within(key, Some(*v), -100.0, 100.0, "rad")?;
+        }
+    }
+    within(
+        "trajectory.start_phase",
+        t.start_phase,
+        -100.0,
+        100.0,
+        "rad",
+    )?;
+    for v in t.centre.iter().flatten() {
+        within("trajectory.centre", Some(*v), -100.0, 100.0, "m")?;
+    }
+    within("trajectory.radius", t.radius, 0.0, 100.0, "m")?;
+    within("trajectory.margin", t.margin, 0.0, 10.0, "m")?;
+    within("duration", f.duration, 0.0, 1e7, "s")?;
+    within("tail_window", f.tail_window, 0.0, 1e7, "s")?;
+    Ok(())
+}
+
 /// Parses a scenario from TOML text.
 pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
     let f: File = toml::from_str(text)
         .map_err(|e| ScenarioError(flexarm_beam::config::toml_error(text, &e)))?;
     let mut cfg = SimConfig::default();
+
+    ranges(&f)?;
 
     // Arm.
     let a = &f.arm;
@@ -370,14 +507,33 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
         a1: cfg.arm.a1 as f32,
         a2: cfg.arm.a2 as f32,
     };
-    let terr = |e: flexarm_core::TrajectoryError| ScenarioError(format!("[trajectory]: {e}"));
-    let trajectory = match f.trajectory {
-        TrajectorySpec::Trapezoid {
-            start,
-            amplitude,
-            move_time,
-            ramp_time,
-        } => {
+    let terr = |e: flexarm_core::TrajectoryError| {
+        ScenarioError(match e {
+            flexarm_core::TrajectoryError::Unreachable { .. } => format!(
+                "`trajectory.centre`: {e} (the circle of this `centre`, `radius` and `margin`)"
+            ),
+            _ => format!("[trajectory]: {e}"),
+        })
+    };
+    let tspec = &f.trajectory;
+    tspec.keys_fit()?;
+    let TrajectorySpec {
+        start,
+        amplitude,
+        move_time,
+        ramp_time,
+        centre,
+        radius,
+        period,
+        start_phase,
+        clockwise,
+        elbow,
+        margin,
+        angles,
+        ..
+    } = *tspec;
+    let trajectory = match tspec.kind {
+        KindSpec::Trapezoid => {
             let p = Trapezoid::<f32>::paper();
             let v2 = |v: [f64; 2]| Vector2::new(v[0] as f32, v[1] as f32);
             let move_time = positive("trajectory.move_time", move_time.unwrap_or(2.0))?;
@@ -403,16 +559,7 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             }
             JointTrajectory::Trapezoid(tr)
         }
-        TrajectorySpec::Circle {
-            centre,
-            radius,
-            period,
-            ramp_time,
-            start_phase,
-            clockwise,
-            elbow,
-            margin,
-        } => {
+        KindSpec::Circle => {
             let centre = centre.unwrap_or([0.65, 0.0]);
             let radius = positive("trajectory.radius", radius.unwrap_or(0.2))?;
             let period = positive("trajectory.period", period.unwrap_or(4.0))?;
@@ -444,8 +591,13 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             .map_err(terr)?;
             JointTrajectory::Circle(circle)
         }
-        TrajectorySpec::Hold { angles } => {
-            JointTrajectory::Hold(Vector2::new(angles[0] as f32, angles[1] as f32))
+        KindSpec::Hold => {
+            let a = angles.unwrap_or_default();
+            let held = Vector2::new(a[0] as f32, a[1] as f32);
+            if !held.iter().all(|x| x.is_finite()) {
+                return err("`trajectory.angles` must be finite [rad]");
+            }
+            JointTrajectory::Hold(held)
         }
     };
     cfg.validate(&trajectory)
