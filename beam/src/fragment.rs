@@ -257,14 +257,17 @@ impl PiezoChoice {
 /// Reads the `[piezo]` table of a TOML document (a scenario file or the fragment alone) and
 /// checks it against link 2 of length `a2` [m]. Errors name the key.
 pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
-    let doc: toml::Table = toml::from_str(text).map_err(|e| ConfigError(e.to_string()))?;
+    let doc: toml::Table =
+        toml::from_str(text).map_err(|e| ConfigError(crate::config::toml_error(text, &e)))?;
     let table = doc
         .get("piezo")
         .cloned()
         .ok_or_else(|| ConfigError("no [piezo] table".into()))?;
-    let s: Section = table
-        .try_into()
-        .map_err(|e: toml::de::Error| ConfigError(format!("[piezo]: {e}")))?;
+    let s: Section = table.try_into().map_err(|e: toml::de::Error| {
+        // One line: the message, then the key it is about.
+        let msg = e.to_string();
+        ConfigError(format!("[piezo]: {}", msg.trim().replace('\n', " ")))
+    })?;
     let fin = |name: &str, v: f64| {
         if v.is_finite() {
             Ok(())
@@ -287,9 +290,26 @@ pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
             s.x_a, s.l_a
         )));
     }
-    for (n, v) in [("k_c", s.k_c), ("k_a", s.k_a), ("k_s", s.k_s)] {
-        if v <= 0.0 {
-            return Err(ConfigError(format!("`piezo.{n}` = {v} must be > 0")));
+    // Physical ranges (SI); the f32 controller runs these values.
+    for (n, v, hi) in [
+        ("k_c", Some(s.k_c), 1e6),
+        ("k_c_paper_modes", s.k_c_paper_modes, 1e6),
+        ("k_a", Some(s.k_a), 1.0),
+        ("k_s", Some(s.k_s), 1e6),
+    ] {
+        if let Some(v) = v
+            && !(v.is_finite() && v > 0.0 && v <= hi)
+        {
+            return Err(ConfigError(format!(
+                "`piezo.{n}` = {v} must be > 0 and at most {hi:e}"
+            )));
+        }
+    }
+    for d in s.slope_diff {
+        if !(d.is_finite() && d.abs() <= 1e4) {
+            return Err(ConfigError(format!(
+                "`piezo.slope_diff` = {d} must be finite, at most 1e4 1/(m sqrt(kg)) in magnitude"
+            )));
         }
     }
     // Derived keys, when present, must agree with the ones they derive from (a hand-edited
