@@ -480,3 +480,35 @@ fn command_line_mistakes_are_one_line_and_exit_1() {
         .unwrap();
     assert!(out.status.success() && String::from_utf8_lossy(&out.stdout).contains("paper"));
 }
+
+#[test]
+fn every_command_line_value_is_refused_in_one_line_or_runs() {
+    let path = format!("{}/scenarios/trapezoid.toml", env!("CARGO_MANIFEST_DIR"));
+    let out = fresh_dir("values");
+    let out_s = out.to_str().unwrap();
+    for opt in ["--duration", "--plant-dt", "--motor-hz", "--piezo-hz"] {
+        for v in ["nan", "inf", "-inf", "-1", "0", "1e-30", "1e30", "text", ""] {
+            let arg = format!("{opt}={v}");
+            let o = Command::new(env!("CARGO_BIN_EXE_flexarm-sim"))
+                .args(["run", &path, "--no-plots", "--out", out_s, &arg])
+                .output()
+                .unwrap();
+            let stderr = String::from_utf8_lossy(&o.stderr);
+            match o.status.code() {
+                Some(0) => {
+                    let stdout = String::from_utf8_lossy(&o.stdout).to_lowercase();
+                    assert!(
+                        !stdout.contains("nan") && !stdout.contains("inf |"),
+                        "{arg}: {stdout}"
+                    );
+                }
+                Some(1) => {
+                    assert_eq!(stderr.lines().count(), 1, "{arg}: {stderr}");
+                    assert!(stderr.starts_with("error: "), "{arg}: {stderr}");
+                }
+                c => panic!("{arg}: exit status {c:?}: {stderr}"),
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
