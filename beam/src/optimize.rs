@@ -303,22 +303,35 @@ mod tests {
         assert!(r.j < start.j);
         assert!(r.x_a >= 0.0 && r.l_a >= 0.01 && r.x_a + r.l_a <= 0.7 + 1e-12);
         assert!(r.k_c >= 1.0 && r.k_c <= 1000.0 + 1e-9);
-        // A local minimum: small moves do not improve it.
-        for (dx, dl) in [(1e-3, 0.0), (-1e-3, 0.0), (0.0, 1e-3), (0.0, -1e-3)] {
-            let (x, l) = (r.x_a + dx, r.l_a + dl);
-            if m.feasible(x, l)
-                && x >= 0.0
-                && l >= 0.01
-                && let Some(e) = evaluate(&m, &w, x, l, r.k_c)
-            {
-                assert!(
-                    e.j >= r.j - 1e-9 * r.j.abs(),
-                    "{dx} {dl}: {} < {}",
-                    e.j,
-                    r.j
-                );
+        // A local minimum: no small feasible move, in the patch or in the gain, improves it.
+        let mut checked = 0;
+        for (dx, dl, fk) in [
+            (1e-3, 0.0, 1.0),
+            (-1e-3, 0.0, 1.0),
+            (0.0, 1e-3, 1.0),
+            (0.0, -1e-3, 1.0),
+            (0.0, 0.0, 1.001),
+            (0.0, 0.0, 0.999),
+        ] {
+            let (x, l, k) = (r.x_a + dx, r.l_a + dl, r.k_c * fk);
+            let Ok(pm) = m.patch_modes(x, l) else {
+                continue;
+            };
+            if x < 0.0 || l < 0.01 || k > m.gain_limit(&pm) || !(1.0..=1000.0).contains(&k) {
+                continue;
             }
+            let Some(e) = evaluate(&m, &w, x, l, k) else {
+                unreachable!("a feasible neighbour evaluates")
+            };
+            assert!(
+                e.j >= r.j - 1e-9 * r.j.abs(),
+                "({dx}, {dl}, ×{fk}): {} < {}",
+                e.j,
+                r.j
+            );
+            checked += 1;
         }
+        assert!(checked >= 4, "only {checked} neighbours were feasible");
     }
 
     #[test]

@@ -560,6 +560,7 @@ mod tests {
         .unwrap_or_else(|e| unreachable!("{e}"));
         let w1 = uniform().frequencies(3).unwrap_or_default();
         let w3 = b3.frequencies(3).unwrap_or_default();
+        assert_eq!((w1.len(), w3.len()), (3, 3), "three frequencies from each");
         for (a, b) in w1.iter().zip(&w3) {
             assert!((a / b - 1.0).abs() < 1e-11);
         }
