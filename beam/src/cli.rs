@@ -394,6 +394,10 @@ pub fn run_optimize(
             &s,
             &j,
             "J = α l_a² + β_c k_c − J0 (best k_c per patch)",
+            match model.normalization {
+                Normalization::UnitModalMass => "J [J]",
+                _ => "J [units of J0 in this normalization]",
+            },
             o.step,
             model.length,
             &best,
@@ -413,16 +417,22 @@ pub fn run_optimize(
             &s,
             &share,
             "J0/W0: share of the initial energy removed (best feasible k_c per patch)",
+            "J0/W0 [-]",
             o.step,
             model.length,
             &best,
         )?;
-        let limit: Vec<f64> = s.points.iter().map(|p| p.k_limit.min(o.k_max)).collect();
+        let limit: Vec<f64> = s
+            .points
+            .iter()
+            .map(|p| p.k_limit.min(o.k_max).log10())
+            .collect();
         plot::heat_map(
             &out_dir.join("heatmap_gain_limit.svg"),
             &s,
             &limit,
-            "largest feasible k_c [s]: min(K_max, amplifier limit); feasible gains lie below",
+            "largest feasible k_c: min(K_max, amplifier limit); feasible gains lie below",
+            "log10 of k_c [s]",
             o.step,
             model.length,
             &best,

@@ -34,11 +34,13 @@ fn colour(t: f64) -> RGBColor {
 
 /// Heat map of one value per grid patch over `(x_a, l_a)`, with the optimum (cross) and the
 /// paper's point (circle).
+#[allow(clippy::too_many_arguments)]
 pub fn heat_map(
     path: &Path,
     sweep: &Sweep,
     values: &[f64],
     title: &str,
+    bar_label: &str,
     step: f64,
     length: f64,
     opt: &Optimum,
@@ -107,6 +109,8 @@ pub fn heat_map(
     bar.configure_mesh()
         .disable_mesh()
         .disable_x_axis()
+        .y_desc(bar_label)
+        .axis_desc_style(("sans-serif", 16))
         .y_label_style(("sans-serif", 13))
         // Trailing spaces: the SVG text is laid out from an estimated width, and real fonts are
         // wider, so the label would run under the bar.

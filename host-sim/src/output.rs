@@ -45,6 +45,36 @@ pub fn write_csv(dir: &Path, o: &Outcome) -> std::io::Result<()> {
 
 type Series = (&'static str, Vec<(f64, f64)>);
 
+/// Points drawn per curve at most: a long run's figure stays a few hundred kilobytes (the CSV
+/// keeps every sample).
+const MAX_DRAWN: usize = 2000;
+
+/// The curve to draw: every point of a short series; of a long one, the first and the extreme
+/// points of each of `MAX_DRAWN / 2` buckets, so that no peak is lost.
+fn decimate(pts: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    if pts.len() <= MAX_DRAWN {
+        return pts.to_vec();
+    }
+    let per = pts.len().div_ceil(MAX_DRAWN / 2);
+    let mut out = Vec::with_capacity(MAX_DRAWN + 2);
+    for chunk in pts.chunks(per) {
+        let lo = chunk
+            .iter()
+            .copied()
+            .fold(chunk[0], |a, p| if p.1 < a.1 { p } else { a });
+        let hi = chunk
+            .iter()
+            .copied()
+            .fold(chunk[0], |a, p| if p.1 > a.1 { p } else { a });
+        if lo.0 <= hi.0 {
+            out.extend([lo, hi]);
+        } else {
+            out.extend([hi, lo]);
+        }
+    }
+    out
+}
+
 fn panel(
     area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
     title: &str,
@@ -60,12 +90,14 @@ fn panel(
         .flat_map(|s| s.1.iter().map(|p| p.1))
         .fold((0.0f64, 0.0f64), |(a, b), y| (a.min(y), b.max(y)));
     let pad = ((hi - lo) * 0.05).max(1e-12);
+    // Headroom above the data for the legend, so that it never covers a curve.
+    let legend_room = (hi - lo).max(1e-12) * 0.12 * series.len() as f64;
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 16))
         .margin(8)
         .x_label_area_size(30)
         .y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_max.max(1e-9), (lo - pad)..(hi + pad))?;
+        .build_cartesian_2d(0.0..t_max.max(1e-9), (lo - pad)..(hi + pad + legend_room))?;
     chart
         .configure_mesh()
         .x_desc("t [s]")
@@ -76,12 +108,13 @@ fn panel(
     for (i, (name, pts)) in series.iter().enumerate() {
         let c = colours[i % colours.len()];
         chart
-            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(1)))?
+            .draw_series(LineSeries::new(decimate(pts), c.stroke_width(1)))?
             .label(*name)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c));
     }
     chart
         .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
         .border_style(BLACK)
         .background_style(WHITE.mix(0.8))
         .label_font(("sans-serif", 11))
@@ -93,13 +126,13 @@ fn panel(
 /// piezo voltage and motor torques of one run (the paper's Figs. 8–10, 15, 19–24).
 pub fn write_figure(dir: &Path, o: &Outcome) -> Result<(), Box<dyn std::error::Error>> {
     let path = dir.join(format!("{}_{}.svg", o.case.scenario, o.case.controller));
-    let root = SVGBackend::new(&path, (1000, 1400)).into_drawing_area();
+    let root = SVGBackend::new(&path, (1000, 1650)).into_drawing_area();
     root.fill(&WHITE)?;
     let root = root.titled(
         &format!("{}: {}", o.case.scenario, label(o.case.controller)),
         ("sans-serif", 22),
     )?;
-    let panels = root.split_evenly((5, 1));
+    let panels = root.split_evenly((6, 1));
     let tr = &o.trace;
     let s =
         |f: &dyn Fn(&crate::sim::Sample) -> f64| tr.iter().map(|p| (p.t, f(p))).collect::<Vec<_>>();
@@ -112,26 +145,23 @@ pub fn write_figure(dir: &Path, o: &Outcome) -> Result<(), Box<dyn std::error::E
             ("θ2 − θ2d", s(&|p| p.x.q.y - p.q_d.y)),
         ],
     )?;
+    // Each mode on its own axis: δ2 is an order of magnitude below δ1.
+    panel(&panels[1], "Mode 1", "√kg·m", &[("δ1", s(&|p| p.x.q.z))])?;
+    panel(&panels[2], "Mode 2", "√kg·m", &[("δ2", s(&|p| p.x.q.w))])?;
     panel(
-        &panels[1],
-        "Modal coordinates",
-        "√kg·m",
-        &[("δ1", s(&|p| p.x.q.z)), ("δ2", s(&|p| p.x.q.w))],
-    )?;
-    panel(
-        &panels[2],
+        &panels[3],
         "Tip deflection",
         "m",
         &[("w(a2)", s(&|p| p.tip))],
     )?;
     panel(
-        &panels[3],
+        &panels[4],
         "Piezo actuator voltage",
         "V",
         &[("V_a", s(&|p| p.v_a))],
     )?;
     panel(
-        &panels[4],
+        &panels[5],
         "Motor torques",
         "N·m",
         &[("τ1", s(&|p| p.tau.x)), ("τ2", s(&|p| p.tau.y))],
@@ -169,4 +199,28 @@ pub fn indices_table(outcomes: &[Outcome]) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decimation_bounds_the_points_and_keeps_the_peaks() {
+        let n = 1_000_000;
+        let pts: Vec<(f64, f64)> = (0..n)
+            .map(|i| {
+                let t = i as f64 * 1e-4;
+                (t, (t * 37.0).sin() + if i == 777_777 { 5.0 } else { 0.0 })
+            })
+            .collect();
+        let d = decimate(&pts);
+        assert!(d.len() <= MAX_DRAWN + 2, "{}", d.len());
+        assert!(d.iter().any(|p| p.1 > 5.0), "the spike survives");
+        let min = pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        assert!(d.iter().any(|p| p.1 == min), "the minimum survives");
+        assert!(d.windows(2).all(|w| w[0].0 <= w[1].0), "time stays ordered");
+        let short = &pts[..100];
+        assert_eq!(decimate(short), short.to_vec());
+    }
 }
