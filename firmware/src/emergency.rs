@@ -80,7 +80,9 @@ fn stop(what: &str) -> ! {
             o.v_a
         );
         // The injection builds pass when a live arm (enabled before) ended with safe outputs.
-        let expected = cfg!(feature = "inject-panic") || cfg!(feature = "inject-hardfault");
+        let expected = cfg!(feature = "inject-panic")
+            || cfg!(feature = "inject-hardfault")
+            || cfg!(feature = "inject-stack-overflow");
         let ok = expected && o.was_enabled && o.is_safe();
         if ok {
             defmt::info!(
@@ -107,10 +109,41 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     stop("panic")
 }
 
-#[cortex_m_rt::exception]
-unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+unsafe extern "C" {
+    /// Top of the stack (cortex-m-rt).
+    static _stack_start: u32;
+}
+
+/// The HardFault vector. A stack overflow runs the stack pointer off the bottom of RAM (flip-link
+/// puts the stack there), so the handler must not push anything on the faulting stack: it first
+/// moves the stack pointer back to the top of the stack (whatever was there is lost with the
+/// fault) and only then enters Rust, with the old stack pointer as its argument.
+#[unsafe(no_mangle)]
+#[unsafe(naked)]
+pub unsafe extern "C" fn HardFault() -> ! {
+    core::arch::naked_asm!(
+        "mrs r0, msp",
+        "ldr r1, ={top}",
+        "msr msp, r1",
+        "b {handler}",
+        top = sym _stack_start,
+        handler = sym hard_fault,
+    )
+}
+
+/// The HardFault handler proper, on a fresh stack; `sp` is the stack pointer at the fault.
+extern "C" fn hard_fault(sp: u32) -> ! {
     stop_outputs();
-    defmt::error!("HardFault at pc {=u32:#x}", frame.pc());
+    // The exception frame's PC is at sp + 24, if the frame was written inside RAM.
+    let (bottom, top) = crate::stack::bounds();
+    let sp = sp as usize;
+    if sp >= bottom && sp + 32 <= top {
+        // SAFETY: a word of the stack region, word-aligned (exception frames are).
+        let pc = unsafe { core::ptr::read_volatile((sp + 24) as *const u32) };
+        defmt::error!("HardFault at pc {=u32:#x}", pc);
+    } else {
+        defmt::error!("HardFault: stack overflow (sp {=u32:#x})", sp as u32);
+    }
     stop("HardFault")
 }
 

@@ -18,6 +18,7 @@ mod board;
 mod clock;
 mod config;
 mod emergency;
+mod stack;
 // Generated from firmware/piezo.toml; each board uses one of its two observer gain tables.
 #[allow(dead_code)]
 mod generated;
@@ -280,6 +281,7 @@ mod app {
     /// Telemetry: prints queued records; at the end of a QEMU run, checks the bounds and exits.
     #[idle(local = [consumer], shared = [check, ctrl, board])]
     fn idle(mut cx: idle::Context) -> ! {
+        crate::stack::paint();
         loop {
             while let Some(r) = cx.local.consumer.dequeue() {
                 telemetry::print(&r);
@@ -432,6 +434,17 @@ mod app {
             defmt::warn!("injecting an undefined instruction in the motor loop at t = 1 s");
             cortex_m::asm::udf();
         }
+        #[cfg(feature = "inject-stack-overflow")]
+        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
+            defmt::warn!("injecting unbounded recursion in the motor loop at t = 1 s");
+            /// Uses 1 KiB of stack per level, forever.
+            #[allow(unconditional_recursion)]
+            fn deeper(n: u32) -> u32 {
+                let buf = core::hint::black_box([n; 256]);
+                deeper(buf[0].wrapping_add(1)).wrapping_add(buf[255])
+            }
+            core::hint::black_box(deeper(0));
+        }
         #[cfg(feature = "inject-piezo-stall")]
         if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
             defmt::warn!("injecting a stalled piezo loop (TIM2 masked) at t = 1 s");
@@ -493,6 +506,15 @@ mod app {
                 mm,
                 mx,
                 stats::MOTOR.misses()
+            );
+            // The stack's mark: a scan of the whole stack region (about 1 ms at 168 MHz, here at
+            // the lowest priority); the QEMU board reports it at the end of its run instead,
+            // since the scan disturbs its timers' relative rates.
+            #[cfg(feature = "hw")]
+            defmt::info!(
+                "stack: {=u32} of {=u32} bytes used",
+                crate::stack::used(),
+                crate::stack::size()
             );
         }
     }

@@ -6,6 +6,8 @@ use flexarm_core::Fault;
 use crate::config::bounds;
 use crate::stats;
 
+include!(concat!(env!("OUT_DIR"), "/budgets.rs"));
+
 /// The fault an injection build expects; `None` for the plain run.
 const EXPECTED_FAULT: Option<Fault> = if cfg!(feature = "inject-nan") {
     Some(Fault::NonFinite)
@@ -27,6 +29,18 @@ pub fn judge(
     enabled: bool,
 ) -> bool {
     let misses = stats::PIEZO.misses() + stats::MOTOR.misses();
+    let stack = crate::stack::used();
+    let stack_ok = stack <= BUDGET_STACK_QEMU;
+    defmt::info!(
+        "stack: {=u32} of {=u32} bytes used (budget {=u32}, firmware/budgets.txt)",
+        stack,
+        crate::stack::size(),
+        BUDGET_STACK_QEMU
+    );
+    if !stack_ok {
+        defmt::error!("FAIL: the stack used more than its budget");
+        return false;
+    }
     defmt::info!(
         "run: max |θ − θ_d| {=f32} rad (bound {=f32}), last-3-s mean {=f32} rad (bound {=f32}), max |tip| {=f32} m (bound {=f32}), final |tip| {=f32} m (bound {=f32}), deadline misses {=u32}",
         max_error,
