@@ -45,9 +45,11 @@ const _: () = {
     assert!(PLL_IN_HZ * PLL_N / PLL_P == 168_000_000);
     assert!(PLL_IN_HZ * PLL_N / PLL_Q == 48_000_000);
 };
-/// Polls of a ready flag before giving up: at the 16 MHz internal oscillator about 20 ms,
-/// several times the crystal's and the PLL's start-up time (datasheet: 2 ms typical).
+/// Polls of a ready flag before giving up: 5 to 10 cycles each at the 16 MHz internal
+/// oscillator, so 30 to 60 ms, many times the crystal's and the PLL's start-up time (datasheet:
+/// 2 ms typical).
 const READY_POLLS: u32 = 100_000;
+
 /// Why the clocks could not be brought up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ClockError {
