@@ -12,5 +12,6 @@ pub mod output;
 pub mod plant;
 pub mod scenario;
 pub mod sim;
+pub mod spillover;
 pub mod study;
 pub mod truth;

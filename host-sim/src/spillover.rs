@@ -1,0 +1,164 @@
+//! Spillover of the piezo loop into the modes the controller does not know (issue 14): the
+//! sampled, filtered rate feedback `V_a = −k_c V̇_f` of the firmware on link 2 with `N` modes,
+//! joints held, linearized, and its stability margin (the factor on `k_c` before the loop goes
+//! unstable). Host side, `f64`.
+//!
+//! Continuous rate feedback from a collocated pair is passive for any gain and any number of
+//! modes; sampled with a zero-order hold (and a one-sample delay, with realistic sensors) it is
+//! not: the gain limit behaves like `2/(T cᵀc)` with `c` the modes' slope differences across the
+//! patch, and `cᵀc` grows with every mode kept (`../shared/notes/model-notes.md` §13).
+//!
+//! ## The loop
+//! Plant, joints held, unit modal mass: `ẋ = A x + B V_a`, `x = (δ, δ̇)`,
+//! `A = [[0, I], [−Ω², −2ζΩ]]`, `B = (0, k_a Δφ')`; film `V_f = k_s Δφ'ᵀ δ`. Discretized exactly
+//! for a zero-order hold over the piezo period `T` (`e^{AT}` of the augmented matrix). The law is
+//! the core's `PiezoLaw` without its saturation: `u_k = a u_{k−1} + b (V_{f,k} − V_{f,k−1})`,
+//! `a = (2 − ω_c T)/(2 + ω_c T)`, `b = −k_c 2ω_c/(2 + ω_c T)`, held for the next period (and read
+//! one period late with `delay`). The closed loop is linear in the state
+//! `(x_k, V_{f,k−1}, u_{k−1} [, V_{f,k−1} held])`; it is stable when every eigenvalue of its
+//! matrix lies inside the unit circle.
+
+use nalgebra::DMatrix;
+
+/// The piezo loop as the firmware runs it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiezoLoop {
+    /// Rate-feedback gain `k_c` [s].
+    pub k_c: f64,
+    /// Corner of the derivative filter [Hz].
+    pub cutoff_hz: f64,
+    /// Loop period `T` [s].
+    pub period: f64,
+    /// The film sample is one period old (the realistic sensors' delay).
+    pub delay: bool,
+}
+
+/// The link as the loop sees it: per mode `ω_j`, `ζ_j` and the patch's slope difference `Δφ'_j`;
+/// the actuator's moment per volt `k_a` and the film's volts per radian `k_s`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModalLink {
+    /// Natural frequencies [rad/s].
+    pub omega: Vec<f64>,
+    /// Damping ratios [-].
+    pub zeta: Vec<f64>,
+    /// `Δφ'_j` [1/(m·√kg)].
+    pub slope_diff: Vec<f64>,
+    /// `k_a` [N·m/V].
+    pub k_a: f64,
+    /// `k_s` [V/rad].
+    pub k_s: f64,
+}
+
+impl ModalLink {
+    /// The first `n` modes only (the controller's truncation, for comparison).
+    pub fn truncated(&self, n: usize) -> Self {
+        Self {
+            omega: self.omega[..n].to_vec(),
+            zeta: self.zeta[..n].to_vec(),
+            slope_diff: self.slope_diff[..n].to_vec(),
+            ..*self
+        }
+    }
+}
+
+/// The closed loop's matrix (module docs) for the gain `k_c`.
+pub fn closed_loop(link: &ModalLink, law: &PiezoLoop) -> DMatrix<f64> {
+    let n = link.omega.len();
+    let t = law.period;
+    // Augmented continuous system [[A, B], [0, 0]] for the zero-order hold.
+    let mut aug = DMatrix::<f64>::zeros(2 * n + 1, 2 * n + 1);
+    for j in 0..n {
+        aug[(j, n + j)] = 1.0;
+        aug[(n + j, j)] = -link.omega[j] * link.omega[j];
+        aug[(n + j, n + j)] = -2.0 * link.zeta[j] * link.omega[j];
+        aug[(n + j, 2 * n)] = link.k_a * link.slope_diff[j];
+    }
+    let e = (aug * t).exp();
+    let ad = e.view((0, 0), (2 * n, 2 * n)).into_owned();
+    let bd = e.view((0, 2 * n), (2 * n, 1)).into_owned();
+    let wc = std::f64::consts::TAU * law.cutoff_hz;
+    let a = (2.0 - wc * t) / (2.0 + wc * t);
+    let b = -law.k_c * 2.0 * wc / (2.0 + wc * t);
+    // c: the film voltage from x (δ entries only).
+    let mut c = DMatrix::<f64>::zeros(1, 2 * n);
+    for j in 0..n {
+        c[(0, j)] = link.k_s * link.slope_diff[j];
+    }
+    // State z = (x, p = previous film sample used, u = previous command [, h = held sample]).
+    // Without delay the sample used at k is c x_k; with delay it is h_k = c x_{k−1}.
+    let extra = if law.delay { 3 } else { 2 };
+    let m = 2 * n + extra;
+    let (ip, iu) = (2 * n, 2 * n + 1);
+    // u_k = a u_{k−1} + b (s_k − p_k), s_k the sample used at k.
+    let mut u_row = DMatrix::<f64>::zeros(1, m);
+    u_row[(0, iu)] = a;
+    u_row[(0, ip)] = -b;
+    if law.delay {
+        u_row[(0, 2 * n + 2)] += b;
+    } else {
+        for j in 0..2 * n {
+            u_row[(0, j)] += b * c[(0, j)];
+        }
+    }
+    let mut z = DMatrix::<f64>::zeros(m, m);
+    // x_{k+1} = Ad x_k + Bd u_k.
+    for i in 0..2 * n {
+        for j in 0..2 * n {
+            z[(i, j)] = ad[(i, j)];
+        }
+        for j in 0..m {
+            z[(i, j)] += bd[(i, 0)] * u_row[(0, j)];
+        }
+    }
+    // p_{k+1} = s_k; u_{k+1 − 1} = u_k; h_{k+1} = c x_k.
+    if law.delay {
+        z[(ip, 2 * n + 2)] = 1.0;
+        for j in 0..2 * n {
+            z[(2 * n + 2, j)] = c[(0, j)];
+        }
+    } else {
+        for j in 0..2 * n {
+            z[(ip, j)] = c[(0, j)];
+        }
+    }
+    for j in 0..m {
+        z[(iu, j)] = u_row[(0, j)];
+    }
+    z
+}
+
+/// Spectral radius of the closed loop: below 1 is stable.
+pub fn spectral_radius(link: &ModalLink, law: &PiezoLoop) -> f64 {
+    closed_loop(link, law)
+        .complex_eigenvalues()
+        .iter()
+        .map(|l| l.norm())
+        .fold(0.0, f64::max)
+}
+
+/// The factor on `k_c` at which the loop becomes unstable (bisection on the spectral radius,
+/// to 0.1 %), searched up to `max_factor`; `None` if it is stable up to there.
+pub fn gain_margin(link: &ModalLink, law: &PiezoLoop, max_factor: f64) -> Option<f64> {
+    let stable = |g: f64| {
+        spectral_radius(
+            link,
+            &PiezoLoop {
+                k_c: law.k_c * g,
+                ..*law
+            },
+        ) < 1.0
+    };
+    if stable(max_factor) {
+        return None;
+    }
+    let (mut lo, mut hi) = (0.0, max_factor);
+    while hi - lo > 1e-3 * hi {
+        let mid = 0.5 * (lo + hi);
+        if stable(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some(lo)
+}
