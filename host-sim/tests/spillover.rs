@@ -133,6 +133,10 @@ fn an_unstable_margin_is_a_growing_vibration() {
             }
         }
         let ratio = z.norm() / at_1s;
-        assert_eq!(ratio > 1.0, grows, "N = {n}: |z| changed by {ratio:e} from 1 s to 5 s");
+        assert_eq!(
+            ratio > 1.0,
+            grows,
+            "N = {n}: |z| changed by {ratio:e} from 1 s to 5 s"
+        );
     }
 }
