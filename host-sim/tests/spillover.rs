@@ -109,6 +109,15 @@ fn margins_of_the_shipped_piezo_loop() {
             .collect();
         println!("  {label}: {}", row.join("; "));
     }
+    // Where the ten-mode loop goes unstable at the shipped gain.
+    let m = flexarm_sim::spillover::closed_loop(&link(10), &FIRMWARE);
+    for l in m.complex_eigenvalues().iter().filter(|l| l.norm() > 1.0) {
+        println!(
+            "  ten modes, 10 kHz: unstable pair |λ| = {:.4} at {:.0} Hz",
+            l.norm(),
+            l.arg().abs() / (std::f64::consts::TAU * FIRMWARE.period)
+        );
+    }
 }
 
 #[test]
