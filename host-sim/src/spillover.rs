@@ -10,7 +10,8 @@
 //!
 //! ## The loop
 //! Plant, joints held, unit modal mass: `ẋ = A x + B V_a`, `x = (δ, δ̇)`,
-//! `A = [[0, I], [−Ω², −2ζΩ]]`, `B = (0, k_a Δφ')`; film `V_f = k_s Δφ'ᵀ δ`. Discretized exactly
+//! `A = [[0, I], [−Ω², −2ζΩ]]`, `B = (0, k_a Δφ')`; film `V_f = k_s Δφ'ᵀ δ`. With an amplifier
+//! of bandwidth `ω_a` the patch sees `V̇_p = ω_a (V_a − V_p)`, a state appended to `x`. Discretized exactly
 //! for a zero-order hold over the piezo period `T` (`e^{AT}` of the augmented matrix). The law is
 //! the core's `PiezoLaw` without its saturation: `u_k = a u_{k−1} + b (V_{f,k} − V_{f,k−1})`,
 //! `a = (2 − ω_c T)/(2 + ω_c T)`, `b = −k_c 2ω_c/(2 + ω_c T)`, held for the next period (and read
@@ -31,6 +32,9 @@ pub struct PiezoLoop {
     pub period: f64,
     /// The film sample is one period old (the realistic sensors' delay).
     pub delay: bool,
+    /// Bandwidth of the piezo amplifier [Hz], a first-order lag between the command and the
+    /// patch voltage; `None` for an ideal amplifier.
+    pub amplifier_hz: Option<f64>,
 }
 
 /// The link as the loop sees it: per mode `ω_j`, `ζ_j` and the patch's slope difference `Δφ'_j`;
@@ -65,45 +69,57 @@ impl ModalLink {
 pub fn closed_loop(link: &ModalLink, law: &PiezoLoop) -> DMatrix<f64> {
     let n = link.omega.len();
     let t = law.period;
-    // Augmented continuous system [[A, B], [0, 0]] for the zero-order hold.
-    let mut aug = DMatrix::<f64>::zeros(2 * n + 1, 2 * n + 1);
+    // Continuous plant states: δ, δ̇ and, with a real amplifier, the patch voltage.
+    let nx = 2 * n + usize::from(law.amplifier_hz.is_some());
+    // Augmented continuous system [[A, B], [0, 0]] for the zero-order hold of the command.
+    let mut aug = DMatrix::<f64>::zeros(nx + 1, nx + 1);
+    let drive = if law.amplifier_hz.is_some() {
+        2 * n
+    } else {
+        nx
+    };
     for j in 0..n {
         aug[(j, n + j)] = 1.0;
         aug[(n + j, j)] = -link.omega[j] * link.omega[j];
         aug[(n + j, n + j)] = -2.0 * link.zeta[j] * link.omega[j];
-        aug[(n + j, 2 * n)] = link.k_a * link.slope_diff[j];
+        aug[(n + j, drive)] = link.k_a * link.slope_diff[j];
+    }
+    if let Some(f) = law.amplifier_hz {
+        let wa = std::f64::consts::TAU * f;
+        aug[(2 * n, 2 * n)] = -wa;
+        aug[(2 * n, nx)] = wa;
     }
     let e = (aug * t).exp();
-    let ad = e.view((0, 0), (2 * n, 2 * n)).into_owned();
-    let bd = e.view((0, 2 * n), (2 * n, 1)).into_owned();
+    let ad = e.view((0, 0), (nx, nx)).into_owned();
+    let bd = e.view((0, nx), (nx, 1)).into_owned();
     let wc = std::f64::consts::TAU * law.cutoff_hz;
     let a = (2.0 - wc * t) / (2.0 + wc * t);
     let b = -law.k_c * 2.0 * wc / (2.0 + wc * t);
     // c: the film voltage from x (δ entries only).
-    let mut c = DMatrix::<f64>::zeros(1, 2 * n);
+    let mut c = DMatrix::<f64>::zeros(1, nx);
     for j in 0..n {
         c[(0, j)] = link.k_s * link.slope_diff[j];
     }
     // State z = (x, p = previous film sample used, u = previous command [, h = held sample]).
     // Without delay the sample used at k is c x_k; with delay it is h_k = c x_{k−1}.
     let extra = if law.delay { 3 } else { 2 };
-    let m = 2 * n + extra;
-    let (ip, iu) = (2 * n, 2 * n + 1);
+    let m = nx + extra;
+    let (ip, iu, ih) = (nx, nx + 1, nx + 2);
     // u_k = a u_{k−1} + b (s_k − p_k), s_k the sample used at k.
     let mut u_row = DMatrix::<f64>::zeros(1, m);
     u_row[(0, iu)] = a;
     u_row[(0, ip)] = -b;
     if law.delay {
-        u_row[(0, 2 * n + 2)] += b;
+        u_row[(0, ih)] += b;
     } else {
-        for j in 0..2 * n {
+        for j in 0..nx {
             u_row[(0, j)] += b * c[(0, j)];
         }
     }
     let mut z = DMatrix::<f64>::zeros(m, m);
     // x_{k+1} = Ad x_k + Bd u_k.
-    for i in 0..2 * n {
-        for j in 0..2 * n {
+    for i in 0..nx {
+        for j in 0..nx {
             z[(i, j)] = ad[(i, j)];
         }
         for j in 0..m {
@@ -112,12 +128,12 @@ pub fn closed_loop(link: &ModalLink, law: &PiezoLoop) -> DMatrix<f64> {
     }
     // p_{k+1} = s_k; u_{k+1 − 1} = u_k; h_{k+1} = c x_k.
     if law.delay {
-        z[(ip, 2 * n + 2)] = 1.0;
-        for j in 0..2 * n {
-            z[(2 * n + 2, j)] = c[(0, j)];
+        z[(ip, ih)] = 1.0;
+        for j in 0..nx {
+            z[(ih, j)] = c[(0, j)];
         }
     } else {
-        for j in 0..2 * n {
+        for j in 0..nx {
             z[(ip, j)] = c[(0, j)];
         }
     }
