@@ -5,6 +5,7 @@
 //! paper's scenarios, scenario files, outputs (CSV, SVG figures, Markdown tables) and the Monte
 //! Carlo robustness study.
 
+pub mod actuators;
 pub mod firmware_params;
 pub mod montecarlo;
 pub mod outdir;
