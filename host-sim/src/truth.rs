@@ -27,7 +27,8 @@
 //! (centrifugal) stiffening of the link; both are of order `(spin/ω1)²` and
 //! `(deflection/length)²` (`../shared/notes/model-notes.md` §14 sizes them).
 
-use flexarm_beam::segmented::{Mode, SegmentedBeam};
+use flexarm_beam::design::{DesignModel, PatchModes};
+use flexarm_beam::fragment::integrals;
 use flexarm_core::params::ArmParams;
 use nalgebra::{SMatrix, SVector};
 
@@ -51,9 +52,13 @@ pub struct LinkBody {
 }
 
 impl LinkBody {
-    /// The segmented beam with its tip body, and `modes` of it (from [`SegmentedBeam::modes`]),
-    /// damped by `zeta` (one ratio per mode).
-    pub fn from_beam(beam: &SegmentedBeam, modes: &[Mode], zeta: &[f64]) -> Self {
+    /// The design beam of `model` with the patch of `pm` (its modes and tip body), damped by
+    /// `model.zeta`: the modal integrals are `flexarm_beam::fragment::integrals`, the ones the
+    /// optimizer's fragment carries.
+    pub fn from_design(model: &DesignModel, pm: &PatchModes) -> Result<Self, TruthError> {
+        let beam = model
+            .beam(pm.x_a, pm.l_a)
+            .map_err(|e| TruthError(format!("the design beam: {e}")))?;
         let (l, m_t, j_t) = (beam.length(), beam.tip_mass, beam.tip_inertia);
         // ∫ρ, ∫ρx, ∫ρx² of piecewise-constant ρA, segment by segment.
         let (mut m, mut s1, mut s2, mut x0) = (0.0, 0.0, 0.0, 0.0);
@@ -64,21 +69,16 @@ impl LinkBody {
             s2 += s.rho_a * (x1.powi(3) - x0.powi(3)) / 3.0;
             x0 = x1;
         }
-        Self {
+        let ints = integrals(model, pm);
+        Ok(Self {
             mass: m + m_t,
             first_moment: s1 + m_t * l,
             second_moment: s2 + m_t * l * l + j_t,
-            v: modes
-                .iter()
-                .map(|md| md.integrate(|_, p| p) + m_t * md.phi(l))
-                .collect(),
-            w: modes
-                .iter()
-                .map(|md| md.integrate(|x, p| x * p) + m_t * l * md.phi(l) + j_t * md.slope(l))
-                .collect(),
-            omega: modes.iter().map(|md| md.omega).collect(),
-            zeta: zeta.to_vec(),
-        }
+            v: ints.iter().map(|i| i.0).collect(),
+            w: ints.iter().map(|i| i.1).collect(),
+            omega: pm.omega(),
+            zeta: model.zeta.clone(),
+        })
     }
 
     /// The controller's own two-mode link (`ArmParams`): a uniform link of mass `m2` over `a2`

@@ -12,10 +12,13 @@ use proptest::prelude::*;
 
 /// The design beam with the paper's patch and `n` modes, damped by `zeta`.
 fn beam_link(n: usize, zeta: f64) -> LinkBody {
-    let model = DesignModel::default();
-    let beam = model.beam(0.09, 0.35).unwrap();
-    let modes = beam.modes(n).unwrap();
-    LinkBody::from_beam(&beam, &modes, &vec![zeta; n])
+    let model = DesignModel {
+        zeta: vec![zeta; n],
+        lambda: vec![1.0; n],
+        ..Default::default()
+    };
+    let pm = model.patch_modes(0.09, 0.35).unwrap();
+    LinkBody::from_design(&model, &pm).unwrap()
 }
 
 fn state<const D: usize>(seed: &[f64]) -> (Coords<D>, Coords<D>) {
