@@ -53,12 +53,17 @@ pub struct Controller<T> {
     /// State observer.
     pub observer: Observer<T>,
     /// Physical ranges of the measurements.
-    pub sensors: SensorLimits<T>,
+    sensors: SensorLimits<T>,
     /// Desired motion.
     pub trajectory: JointTrajectory<T>,
     /// Motor-loop period [s].
     pub motor_period: T,
     latch: SafetyLatch,
+    /// The piezo loop's one test: a film sample passes when `|V_f| < film_gate` [V], which is
+    /// the film's range `v_f_max` while the latch is clear and −1 (nothing passes) once it has
+    /// tripped, so the latch costs the hot path no test of its own. Every trip goes through
+    /// [`Self::trip`], which closes it; [`Self::reset`] opens it.
+    film_gate: T,
     staleness: Staleness,
     /// Encoder angles of the previous sample [rad].
     previous: Option<Vector2<T>>,
@@ -79,7 +84,6 @@ impl<T: Real> Controller<T> {
         motor_period: T,
         stale_limit: u32,
     ) -> Self {
-        let mut latch = SafetyLatch::default();
         let valid = motor.model.params.validate().is_ok()
             && motor.gains.validate().is_ok()
             && motor.limits.validate().is_ok()
@@ -88,10 +92,7 @@ impl<T: Real> Controller<T> {
             && observer.is_finite()
             && motor_period.finite()
             && motor_period > T::zero();
-        if !valid {
-            latch.trip(Fault::InvalidConfig);
-        }
-        Self {
+        let mut c = Self {
             motor,
             piezo,
             patch,
@@ -99,11 +100,16 @@ impl<T: Real> Controller<T> {
             sensors,
             trajectory,
             motor_period,
-            latch,
+            latch: SafetyLatch::default(),
+            film_gate: sensors.v_f_max,
             staleness: Staleness::new(stale_limit),
             previous: None,
             v_a: T::zero(),
+        };
+        if !valid {
+            c.trip(Fault::InvalidConfig);
         }
+        c
     }
 
     /// The paper's arm, gains and patch with our defaults (`docs/model.md`): the controller the
@@ -175,17 +181,29 @@ impl<T: Real> Controller<T> {
         self.latch.fault()
     }
 
+    /// The physical ranges the measurements are checked against.
+    pub fn sensors(&self) -> &SensorLimits<T> {
+        &self.sensors
+    }
+
     /// Latches `fault` from outside (overrun, amplifier fault input, watchdog, bad
     /// configuration). Returns `true` if it is the first.
     pub fn trip(&mut self, fault: Fault) -> bool {
         self.v_a = T::zero();
+        self.film_gate = -T::one();
         self.latch.trip(fault)
+    }
+
+    /// `r`'s value, or `None` after latching its fault.
+    fn check<X>(&mut self, r: Result<X, Fault>) -> Option<X> {
+        r.map_err(|f| self.trip(f)).ok()
     }
 
     /// Clears the latch and restarts the filters and the observer at the encoder angles
     /// `theta` [rad]. Angles that are not finite trip [`Fault::NonFinite`] at once.
     pub fn reset(&mut self, theta: Vector2<T>) {
         self.latch.reset();
+        self.film_gate = self.sensors.v_f_max;
         self.piezo.reset();
         self.v_a = T::zero();
         self.reset_observer(theta);
@@ -253,12 +271,12 @@ impl<T: Real> Controller<T> {
             return None;
         }
         let stale = self.staleness.tick(y.is_some());
-        self.latch.check(stale)?;
+        self.check(stale)?;
         if let Some(y) = y {
             let checked = self
                 .sensors
                 .check(y, self.previous.as_ref(), self.motor_period);
-            self.latch.check(checked)?;
+            self.check(checked)?;
             // The range check has rejected NaN and ±∞.
             self.observer.correct_finite(y);
             self.previous = Some(y.theta);
@@ -272,32 +290,31 @@ impl<T: Real> Controller<T> {
             Some((q, qd)) => self.motor.step(t, q, qd, &target),
             None => self.motor.law_with(&terms_hat, t, &q_hat, &qd_hat, &target),
         };
-        let out = self.latch.check(out)?;
+        let out = self.check(out)?;
         // u = [τ, C_a V_a] (Eq. 18), written out: IEEE arithmetic cannot drop the `+ 0`s.
         let f = self.patch.c_a() * self.v_a;
         let u = Vector4::new(out.tau.x, out.tau.y, f.x, f.y);
-        self.latch.check(
-            self.observer
-                .predict_with(&self.motor.model, &terms_hat, &u),
-        )?;
+        let predicted = self
+            .observer
+            .predict_with(&self.motor.model, &terms_hat, &u);
+        self.check(predicted)?;
         Some(out)
     }
 
     /// One piezo step with the film voltage `v_f` [V]; returns the amplifier command [V]
     /// (0 V in the safe state).
     pub fn piezo_step(&mut self, v_f: T) -> T {
-        if self.latch.fault().is_some() {
-            return T::zero();
-        }
-        // One comparison rejects NaN, ±∞ and out-of-range samples; the cause is sorted out on
-        // the (rare) fault path.
+        // One comparison rejects a latched controller (the gate is closed) and NaN, ±∞ and
+        // out-of-range samples; the cause is sorted out on the (rare) fault path.
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
-        if !(v_f.abs() < self.sensors.v_f_max) {
-            self.trip(if v_f.finite() {
-                Fault::OutOfRange
-            } else {
-                Fault::NonFinite
-            });
+        if !(v_f.abs() < self.film_gate) {
+            if self.latch.fault().is_none() {
+                self.trip(if v_f.finite() {
+                    Fault::OutOfRange
+                } else {
+                    Fault::NonFinite
+                });
+            }
             return T::zero();
         }
         self.v_a = self.piezo.step_finite(v_f);

@@ -122,17 +122,6 @@ impl SafetyLatch {
     pub fn reset(&mut self) {
         self.fault = None;
     }
-
-    /// Trips on `Err` and returns the value on `Ok`.
-    pub fn check<V>(&mut self, r: Result<V, Fault>) -> Option<V> {
-        match r {
-            Ok(v) => Some(v),
-            Err(f) => {
-                self.trip(f);
-                None
-            }
-        }
-    }
 }
 
 /// The amplifiers' fault line, debounced. Many amplifiers assert their fault output while

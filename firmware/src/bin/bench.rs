@@ -16,8 +16,6 @@
 #![no_main]
 
 use core::hint::black_box;
-use core::sync::atomic::Ordering::SeqCst;
-use core::sync::atomic::compiler_fence;
 
 use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
 use defmt_semihosting as _;
@@ -42,11 +40,6 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     loop {
         cortex_m::asm::bkpt();
     }
-}
-
-fn now() -> u32 {
-    // SAFETY: a side-effect-free read of TIM5's counter, configured once in `main`.
-    unsafe { (*stm32f4::stm32f405::TIM5::ptr()).cnt().read().bits() }
 }
 
 /// One benchmark state.
@@ -89,44 +82,180 @@ impl Stat {
     }
 }
 
-// The measured calls. Each wrapper is never inlined and reads the counter itself, around the
-// call, with compiler fences so that no load or computation moves across the reads; the state
-// (controller, model, sample) stays in memory as in the firmware.
+// The measured calls. Each wrapper is never inlined and reads the counter itself around the
+// call. Nothing can move across the reads: after the first, an `asm!` barrier takes the inputs
+// (so no load or arithmetic on them is hoisted above it); before the second, an `asm!` block
+// takes every value of the result in its register (a data dependency: the work must be done)
+// and, like the first, may read memory (so every store of the call is done too). Both blocks
+// are empty: they cost no instruction.
 
-/// Runs `f` between two counter reads; returns its result and the count.
+/// Reads TIM5's counter: the register's address built in the block itself, so the opening and
+/// the closing read cost the same wherever the compiler keeps its registers, then `LDREX`, an
+/// instruction no measured function executes, which marks the edges of the timed region in
+/// QEMU's execution trace (`scripts/fw-cycles`). On the M4 it costs what an `LDR` does.
 #[inline(always)]
-fn timed<R>(f: impl FnOnce() -> R) -> (R, u32) {
+fn now() -> u32 {
+    let v: u32;
+    // SAFETY: a load of TIM5's counter register, configured once in `main` (an exclusive load:
+    // it also sets the local monitor, which nothing in this program uses).
+    unsafe {
+        core::arch::asm!(
+            "movw {p}, #0x0c24",
+            "movt {p}, #0x4000",
+            "ldrex {v}, [{p}]",
+            p = out(reg) _,
+            v = out(reg) v,
+            options(nostack, preserves_flags)
+        );
+    }
+    v
+}
+
+/// Values whose computation must be finished before the closing counter read: each `f32` of
+/// the result goes into an empty `asm!` block in a core register, one `VMOV` per value, which
+/// stands in for the store of the result that the firmware does (`rustc` offers no FP register
+/// class to an `asm!` operand on this target without the double-precision `vfp2` feature).
+/// The blocks may read memory, so every store of the call is done before the closing read too.
+trait Consume {
+    fn consume(&self);
+}
+
+impl Consume for f32 {
+    #[inline(always)]
+    fn consume(&self) {
+        // SAFETY: an empty block that only takes the value.
+        unsafe {
+            core::arch::asm!("/* {0} */", in(reg) self.to_bits(), options(nostack, preserves_flags))
+        }
+    }
+}
+
+impl Consume for Vector2<f32> {
+    #[inline(always)]
+    fn consume(&self) {
+        self.x.consume();
+        self.y.consume();
+    }
+}
+
+impl Consume for () {
+    #[inline(always)]
+    fn consume(&self) {
+        // SAFETY: an empty block (a compiler barrier: it may read and write memory).
+        unsafe { core::arch::asm!("", options(nostack, preserves_flags)) }
+    }
+}
+
+impl<R: Consume> Consume for Option<R> {
+    #[inline(always)]
+    fn consume(&self) {
+        match self {
+            Some(r) => r.consume(),
+            None => ().consume(),
+        }
+    }
+}
+
+/// The inputs of a timed call, handed through an empty `asm!` block after the opening read:
+/// every load of them, and every computation on them, comes after it.
+trait Launder {
+    fn launder(self) -> Self;
+}
+
+impl<P> Launder for &P {
+    #[inline(always)]
+    fn launder(self) -> Self {
+        let mut p: *const P = self;
+        // SAFETY: an empty block that may read and write memory; the pointer comes back
+        // unchanged, so the reference stays valid.
+        unsafe {
+            core::arch::asm!("/* {0} */", inout(reg) p, options(nostack, preserves_flags));
+            &*p
+        }
+    }
+}
+
+impl<P> Launder for &mut P {
+    #[inline(always)]
+    fn launder(self) -> Self {
+        let mut p: *mut P = self;
+        // SAFETY: as above; the unique reference was moved in and comes back.
+        unsafe {
+            core::arch::asm!("/* {0} */", inout(reg) p, options(nostack, preserves_flags));
+            &mut *p
+        }
+    }
+}
+
+impl<A: Launder, B: Launder> Launder for (A, B) {
+    #[inline(always)]
+    fn launder(self) -> Self {
+        (self.0.launder(), self.1.launder())
+    }
+}
+
+impl<A: Launder, B: Launder, C: Launder> Launder for (A, B, C) {
+    #[inline(always)]
+    fn launder(self) -> Self {
+        (self.0.launder(), self.1.launder(), self.2.launder())
+    }
+}
+
+/// Runs `f` on `inputs` between two counter reads; returns its result and the count.
+#[inline(always)]
+fn timed<P: Launder, R: Consume>(inputs: P, f: impl FnOnce(P) -> R) -> (R, u32) {
     let t0 = now();
-    compiler_fence(SeqCst);
-    let r = f();
-    compiler_fence(SeqCst);
+    let r = f(inputs.launder());
+    r.consume();
     let t1 = now();
     (r, t1.wrapping_sub(t0))
 }
 
+/// The timed region with nothing in it: the cost of the reads themselves (calibration).
 #[inline(never)]
-fn call_empty(c: &mut Controller<f32>, v_f: f32) -> (f32, u32) {
-    timed(|| black_box((c, v_f)).1)
+fn call_empty(s: &State) -> ((), u32) {
+    timed(s, |_| ())
+}
+
+/// The timed region around 32 `NOP`s: must measure the empty region's count plus 32
+/// (calibration: the subtracted overhead is verified, not assumed).
+#[inline(never)]
+fn call_nops(s: &State) -> ((), u32) {
+    timed(s, |_| {
+        // SAFETY: 32 no-operations.
+        unsafe {
+            core::arch::asm!(
+                ".rept 32",
+                "nop",
+                ".endr",
+                options(nostack, preserves_flags)
+            )
+        }
+    })
 }
 
 #[inline(never)]
 fn call_eq7(model: &Model<f32>, gains: &Gains<f32>, s: &State) -> (Vector2<f32>, u32) {
-    timed(|| eq7_torques(model, gains, &s.q, &s.qd, &s.target))
+    timed((model, gains, s), |(m, g, s)| {
+        eq7_torques(m, g, &s.q, &s.qd, &s.target)
+    })
 }
 
 #[inline(never)]
 fn call_motor_law(motor: &MotorController<f32>, s: &State) -> (Option<Vector2<f32>>, u32) {
-    timed(|| motor.step(s.t, &s.q, &s.qd, &s.target).ok().map(|o| o.tau))
+    timed((motor, s), |(m, s)| {
+        m.step(s.t, &s.q, &s.qd, &s.target).ok().map(|o| o.tau)
+    })
 }
 
 #[inline(never)]
-fn call_motor_step(c: &mut Controller<f32>, s: &State) -> (Vector2<f32>, u32) {
-    timed(|| c.motor_step(s.t, Some(&s.y)).command.tau)
+fn call_motor_step(c: &mut Controller<f32>, t: &f32, y: &Measurement<f32>) -> (Vector2<f32>, u32) {
+    timed((c, t, y), |(c, t, y)| c.motor_step(*t, Some(y)).command.tau)
 }
 
 #[inline(never)]
-fn call_piezo_step(c: &mut Controller<f32>, v_f: f32) -> (f32, u32) {
-    timed(|| c.piezo_step(v_f))
+fn call_piezo_step(c: &mut Controller<f32>, v_f: &f32) -> (f32, u32) {
+    timed((c, v_f), |(c, v_f)| c.piezo_step(*v_f))
 }
 
 /// Counts of `f` (a timed call) over `states`, overhead subtracted.
@@ -228,6 +357,40 @@ fn random() -> [State; N] {
     })
 }
 
+/// The counts of the timed region empty and around 32 `NOP`s: the overhead to subtract, after
+/// checking that a known sequence of 32 instructions measures 32.
+fn calibrate() -> Option<u32> {
+    let s = random()[0];
+    let empty = (0..8).map(|_| call_empty(black_box(&s)).1).min()?;
+    let nops = (0..8).map(|_| call_nops(black_box(&s)).1).min()?;
+    defmt::info!(
+        "calibration: empty region {=u32}, 32 NOPs {=u32} (must be {=u32})",
+        empty,
+        nops,
+        empty + 32
+    );
+    (nops == empty + 32).then_some(empty)
+}
+
+/// Prints one row and checks it against its budget (the random states only).
+fn report(set: &str, name: &str, s: &Stat, budget: Option<u32>) -> bool {
+    let within = budget.is_none_or(|b| s.mean() <= b);
+    defmt::info!(
+        "BENCH {=str} {=str}: min {=u32} mean {=u32} max {=u32} instructions{=str}",
+        set,
+        name,
+        s.min,
+        s.mean(),
+        s.max,
+        match budget {
+            None => "",
+            Some(_) if within => " (within budget)",
+            Some(_) => " OVER BUDGET",
+        }
+    );
+    within
+}
+
 #[cortex_m_rt::entry]
 fn main() -> ! {
     let dp = stm32f4::stm32f405::Peripherals::take()
@@ -238,16 +401,19 @@ fn main() -> ! {
     dp.TIM5.cr1().write(|w| w.cen().set_bit());
     dp.TIM5.cnt().write(|w| w.cnt().set(0));
 
-    let sets = [("recorded", recorded()), ("random", random())];
-    let overhead = {
-        let mut c = controller(MotorLaw::Robust);
-        measure(&sets[0].1, 0, |s| call_empty(black_box(&mut c), s.y.v_f)).min
+    let Some(overhead) = calibrate() else {
+        defmt::error!("calibration failed: the timed region does not count what it holds");
+        exit(EXIT_FAILURE);
+        loop {
+            cortex_m::asm::wfi();
+        }
     };
     defmt::info!(
         "measurement overhead: {=u32} instructions (subtracted)",
         overhead
     );
 
+    let sets = [("recorded", recorded()), ("random", random())];
     let model = Model::new(ArmParams::<f32>::default());
     let gains = Gains::default();
     let motor = MotorController {
@@ -256,65 +422,43 @@ fn main() -> ! {
         limits: Limits::default(),
         law: MotorLaw::Robust,
     };
+    let base = controller(MotorLaw::Robust);
     let mut ok = true;
-    for (name, states) in &sets {
-        let rows = [
-            (
-                "eq7",
-                measure(states, overhead, |s| {
-                    call_eq7(black_box(&model), black_box(&gains), s)
-                }),
-            ),
-            (
-                "motor_step",
-                measure(states, overhead, |s| call_motor_law(black_box(&motor), s)),
-            ),
-            ("controller_motor", {
-                let base = controller(MotorLaw::Robust);
-                let mut stat = Stat::new();
-                for s in states.iter() {
-                    let mut c = base;
-                    c.reset_observer(s.y.theta);
-                    let (tau, n) = call_motor_step(black_box(&mut c), s);
-                    black_box(tau);
-                    stat.add(n.saturating_sub(overhead));
-                }
-                stat
-            }),
-            ("piezo_step", {
-                let mut c = controller(MotorLaw::Robust);
-                measure(states, overhead, |s| {
-                    call_piezo_step(black_box(&mut c), s.y.v_f)
-                })
-            }),
-        ];
-        for (fname, s) in &rows {
-            let budget = match *fname {
-                "eq7" => BUDGET_EQ7_MEAN,
-                "motor_step" => BUDGET_MOTOR_STEP_MEAN,
-                "controller_motor" => BUDGET_CONTROLLER_MOTOR_MEAN,
-                _ => BUDGET_PIEZO_STEP_MEAN,
-            };
-            let within = *name != "random" || s.mean() <= budget;
-            ok &= within;
-            defmt::info!(
-                "BENCH {=str} {=str}: min {=u32} mean {=u32} max {=u32} instructions{=str}",
-                *name,
-                *fname,
-                s.min,
-                s.mean(),
-                s.max,
-                if *name == "random" {
-                    if within {
-                        " (within budget)"
-                    } else {
-                        " OVER BUDGET"
-                    }
-                } else {
-                    ""
-                }
-            );
+    for (set, states) in &sets {
+        let gated = |b: u32| (*set == "random").then_some(b);
+        let eq7 = measure(states, overhead, |s| {
+            call_eq7(black_box(&model), black_box(&gains), s)
+        });
+        ok &= report(set, "eq7", &eq7, gated(BUDGET_EQ7_MEAN));
+        let law = measure(states, overhead, |s| call_motor_law(black_box(&motor), s));
+        ok &= report(set, "motor_step", &law, gated(BUDGET_MOTOR_STEP_MEAN));
+        // The complete motor step in steady state: a previous sample one period earlier, so
+        // every check runs (the encoder-jump check included). Gated.
+        let mut steady = Stat::new();
+        // The same step as the first after a reset (no previous sample): reported.
+        let mut first = Stat::new();
+        for s in states.iter() {
+            let mut c = base;
+            c.reset_observer(s.y.theta);
+            let (tau, n) = call_motor_step(black_box(&mut c), &s.t, &s.y);
+            black_box(tau);
+            first.add(n.saturating_sub(overhead));
+            let (tau, n) = call_motor_step(black_box(&mut c), &(s.t + 1e-3), &s.y);
+            black_box(tau);
+            steady.add(n.saturating_sub(overhead));
         }
+        ok &= report(
+            set,
+            "controller_motor",
+            &steady,
+            gated(BUDGET_CONTROLLER_MOTOR_MEAN),
+        );
+        report(set, "controller_motor_first", &first, None);
+        let mut c = base;
+        let piezo = measure(states, overhead, |s| {
+            call_piezo_step(black_box(&mut c), &s.y.v_f)
+        });
+        ok &= report(set, "piezo_step", &piezo, gated(BUDGET_PIEZO_STEP_MEAN));
     }
     exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
     loop {
