@@ -1,17 +1,21 @@
 //! Instruction counts of the hot-path functions on the Cortex-M4F, under QEMU
-//! (`cargo fw-bench`).
+//! (`cargo fw-bench`, whose runner `scripts/fw-cycles` also estimates their cycles).
 //!
 //! With `-icount shift=0` QEMU advances TIM5 (clocked at 1 GHz) by one count per executed
 //! instruction, so a count difference around a call is the number of instructions it executed:
 //! exact and repeatable. Each function is called through a wrapper that is never inlined, with
 //! its state in memory, the way an interrupt handler calls it: the count is the function's own
-//! work, the loads and stores of its state included. The cost of the measurement itself, the
-//! two reads around a call of an empty wrapper of the same shape, is subtracted. On hardware,
-//! the same code would read the DWT cycle counter instead.
+//! work, the loads and stores of its state included. The timed region is built so that it
+//! cannot flatter itself (see [`timed`]): inputs handed in after the opening read, every value
+//! of the result consumed before the closing one, and the cost of the two reads measured on an
+//! empty region and checked against 32 `NOP`s before it is subtracted. On hardware, the same
+//! code would read the DWT cycle counter instead.
 //!
 //! States: 200 recorded along the paper's trapezoid move (the simulated arm under the complete
-//! controller, the same code as the QEMU board) and 200 random ones. Each mean is checked
-//! against `firmware/budgets.txt`; the run exits non-zero on a regression.
+//! controller, the same code as the QEMU board) and 200 random ones; the complete motor step
+//! in steady state (a previous sample, every check running) and as the first step after a
+//! reset. Each mean over the random states is checked against `firmware/budgets.txt`; the run
+//! exits non-zero on a regression or a failed calibration.
 #![no_std]
 #![no_main]
 
