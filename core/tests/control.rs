@@ -46,6 +46,32 @@ proptest! {
         }
     }
 
+    /// The same in `f32`, as the firmware runs it, over magnitudes of `δ̇_j s_j` from 1e-12 to
+    /// 1e18: the one division for both modes (`f_j = p_j n_k / (n_1 n_2)`) neither overflows
+    /// nor leaves `[D_Δ, 2 D_Δ)`, and agrees with `p_j / n_j` to a few ulps.
+    #[test]
+    fn robust_term_in_f32_over_magnitudes(
+        e in prop::array::uniform4(-6.0..9.0f64),
+        sign in prop::array::uniform4(prop::bool::ANY),
+        t in 0.0..1e3f32,
+    ) {
+        let m = |k: usize| (if sign[k] { 1.0 } else { -1.0 }) * 10f64.powf(e[k]) as f32;
+        let (dd, s) = (Vector2::new(m(0), m(1)), Vector2::new(m(2), m(3)));
+        let g = Gains::<f32>::default();
+        let a = modal_damping_accel(&g, t, &dd, &s);
+        for i in 0..2 {
+            let d = -a[i] / dd[i];
+            // The bounds up to the rounding of `−a/δ̇` (a few ulps).
+            let ulps = 1.0 + 4.0 * f32::EPSILON;
+            prop_assert!(d.is_finite() && d * ulps >= g.d_delta[i] && d <= 2.0 * g.d_delta[i] * ulps, "D' = {}", d);
+            let layer = (g.epsilon[i] * (-g.phi[i] * t).exp()).max(g.epsilon_floor);
+            let p = (dd[i] * s[i]).abs();
+            let f = p / (p + layer);
+            let want = -g.d_delta[i] * (1.0 + f) * dd[i];
+            prop_assert!((a[i] - want).abs() <= 4.0 * f32::EPSILON * want.abs(), "{} vs {}", a[i], want);
+        }
+    }
+
     /// Sign convention: with an ideal derivative the law, the actuator and the film are wired
     /// so that `δ̇ᵀ C_a V_a = −k_c k_s k_a (Δφ'ᵀ δ̇)² ≤ 0`. This holds by construction for any
     /// magnitudes and catches only a sign mismatch; how much energy the sampled, filtered loop

@@ -92,9 +92,14 @@ fn inject(fault_step: impl FnOnce(&mut Controller<f32>) -> Command<f32>, expect:
     }
     c.trip(Fault::Amplifier);
     assert_eq!(c.fault(), Some(expect), "first cause kept");
-    // An explicit reset brings it back.
+    // An explicit reset brings it back, the piezo loop included (its film gate reopens).
     c.reset(Vector2::zeros());
     assert!(c.motor_step(0.1, Some(&y(0.0, 0.0, 0.0))).command.enable);
+    assert_eq!(c.piezo_step(0.0), 0.0, "the filter restarts");
+    assert!(
+        c.piezo_step(1e-3) < 0.0,
+        "a rising film voltage is damped again"
+    );
 }
 
 #[test]
