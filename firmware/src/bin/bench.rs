@@ -89,9 +89,10 @@ impl Stat {
 // The measured calls. Each wrapper is never inlined and reads the counter itself around the
 // call. Nothing can move across the reads: after the first, an `asm!` barrier takes the inputs
 // (so no load or arithmetic on them is hoisted above it); before the second, an `asm!` block
-// takes every value of the result in its register (a data dependency: the work must be done)
-// and, like the first, may read memory (so every store of the call is done too). Both blocks
-// are empty: they cost no instruction.
+// takes every value of the result in a core register (a data dependency: the work must be done)
+// and, like the first, may read memory (so every store of the call is done too). The blocks are
+// empty; the only instructions they cause are the result's transfers, one `VMOV` per value,
+// counted as part of the call.
 
 /// Reads TIM5's counter: the register's address built in the block itself, so the opening and
 /// the closing read cost the same wherever the compiler keeps its registers, then `LDREX`, an
