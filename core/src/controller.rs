@@ -181,11 +181,6 @@ impl<T: Real> Controller<T> {
         self.latch.fault()
     }
 
-    /// The physical ranges the measurements are checked against.
-    pub fn sensors(&self) -> &SensorLimits<T> {
-        &self.sensors
-    }
-
     /// Latches `fault` from outside (overrun, amplifier fault input, watchdog, bad
     /// configuration). Returns `true` if it is the first.
     pub fn trip(&mut self, fault: Fault) -> bool {
