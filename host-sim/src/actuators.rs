@@ -3,7 +3,8 @@
 //! machine stepped with the plant's step `dt` [s], its output held between steps.
 //!
 //! - [`Motor`]: a joint drive in torque mode: the current loop as a first-order lag of time
-//!   constant `τ_i`, the torque limit, viscous and Coulomb friction. The Coulomb term is smoothed
+//!   constant `τ_i` (the torque-constant's scaling is inside the drive: the command is a
+//!   torque), the torque limit, viscous and Coulomb friction. The Coulomb term is smoothed
 //!   through zero speed as `F_c tanh(θ̇ / v_s)`, so the plant stays a smooth ODE (a stiction model
 //!   would need event handling); `v_s` is stated with it. The rotor's inertia through the gear,
 //!   `n² J_r`, belongs to the arm's inertia matrix, not here.
@@ -11,7 +12,8 @@
 //!   first-order lag of bandwidth `f_a`, its voltage window, and its output current limit, which
 //!   caps the slew rate at `I_max / C_p`.
 //! - [`FilmAmplifier`]: the PVDF film read through a charge (or voltage) amplifier, high-pass with
-//!   corner `f_h` (`V_out' = V_f' − ω_h V_out`), then the ADC's range and resolution.
+//!   corner `f_h` (`V_out' = V_f' − ω_h V_out`); the ADC behind it is the simulator's
+//!   (`crate::sim::Sensors`: range, resolution, noise, delay).
 
 /// A joint drive in torque mode.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,9 +51,9 @@ impl Motor {
         }
     }
 
-    /// Advances the current loop by `dt` toward the command (saturated) and returns the net
-    /// joint torque at the joint speed `speed` [rad/s]: motor torque minus friction.
-    pub fn step(&mut self, command: f64, speed: f64, dt: f64) -> f64 {
+    /// Advances the current loop by `dt` toward the command (saturated; NaN commands 0) and
+    /// returns the motor's torque at the joint [N·m], before friction.
+    pub fn step(&mut self, command: f64, dt: f64) -> f64 {
         let target = if command.is_nan() {
             0.0
         } else {
@@ -63,7 +65,7 @@ impl Motor {
         } else {
             target
         };
-        self.torque - self.friction(speed)
+        self.torque
     }
 
     /// Friction torque at the joint speed `speed` [rad/s] (opposes the motion).
@@ -134,60 +136,47 @@ impl PiezoAmplifier {
     }
 }
 
-/// The film's amplifier (high-pass) and the ADC behind it.
+/// The film's amplifier: high-pass (the ADC behind it is `crate::sim::Sensors`').
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FilmAmplifier {
-    /// High-pass corner `f_h` [Hz]; 0 for a DC-coupled amplifier.
+    /// High-pass corner `f_h` [Hz]; 0 for a DC-coupled amplifier (output = film voltage).
     pub corner_hz: f64,
-    /// ADC input range ±[V].
-    pub adc_range: f64,
-    /// ADC resolution [bits]; 0 for an exact reading.
-    pub adc_bits: u32,
     /// The amplifier's output now [V].
     output: f64,
     /// The film voltage at the previous step [V].
-    previous: Option<f64>,
+    previous: f64,
 }
 
 impl FilmAmplifier {
-    /// A film amplifier with the given high-pass corner [Hz] and ADC range [V] and resolution.
-    pub fn new(corner_hz: f64, adc_range: f64, adc_bits: u32) -> Self {
+    /// A film amplifier with the given high-pass corner [Hz], settled at the film voltage
+    /// `v_f` [V] (output 0 when high-pass).
+    pub fn new(corner_hz: f64, v_f: f64) -> Self {
         Self {
             corner_hz,
-            adc_range,
-            adc_bits,
-            output: 0.0,
-            previous: None,
+            output: if corner_hz > 0.0 { 0.0 } else { v_f },
+            previous: v_f,
         }
     }
 
-    /// Advances the high-pass by `dt` with the film's open-circuit voltage `v_f` [V] and returns
+    /// Advances the high-pass by `dt` to the film's open-circuit voltage `v_f` [V] and returns
     /// the amplifier's output [V]: `y' = v_f' − ω_h y`, stepped exactly for `v_f` linear over
-    /// the step.
+    /// the step: `y(t+dt) = e^{−ω_h dt} y + (Δv/dt)(1 − e^{−ω_h dt})/ω_h`.
     pub fn step(&mut self, v_f: f64, dt: f64) -> f64 {
-        let dv = self.previous.map_or(0.0, |p| v_f - p);
-        self.previous = Some(v_f);
+        let dv = v_f - self.previous;
+        self.previous = v_f;
         self.output = if self.corner_hz > 0.0 {
             let wh = std::f64::consts::TAU * self.corner_hz;
             let decay = (-wh * dt).exp();
-            // y(t+dt) = e^{−ω dt} y + (Δv/dt)(1 − e^{−ω dt})/ω.
             self.output * decay + dv / dt * (1.0 - decay) / wh
         } else {
-            self.output + dv
+            v_f
         };
         self.output
     }
 
-    /// What the ADC reads of the amplifier's output [V]: clamped to its range and quantized.
-    pub fn read(&self) -> f64 {
-        let v = self.output.clamp(-self.adc_range, self.adc_range);
-        if self.adc_bits == 0 {
-            return v;
-        }
-        // Codes 0 … 2ⁿ − 1 across ±range, as the hardware board reads its ADC.
-        let top = 2f64.powi(self.adc_bits as i32) - 1.0;
-        let code = ((v / self.adc_range + 1.0) * 0.5 * top).round();
-        (code / top * 2.0 - 1.0) * self.adc_range
+    /// The amplifier's output now [V].
+    pub fn output(&self) -> f64 {
+        self.output
     }
 }
 
@@ -202,7 +191,7 @@ mod tests {
         let mut t = 0.0;
         let mut out = 0.0;
         while t < 1e-3 - 1e-12 {
-            out = m.step(2.0, 0.0, dt);
+            out = m.step(2.0, dt);
             t += dt;
         }
         // One time constant: 1 − 1/e of the step, and no friction at rest.
@@ -214,8 +203,8 @@ mod tests {
         assert_eq!(out, m.torque());
         // Saturation, NaN → 0, and friction against the motion, smooth through zero.
         let mut m = Motor::new(0.0, 5.0, 0.1, 0.2, 0.01);
-        assert_eq!(m.step(50.0, 0.0, dt), 5.0);
-        assert_eq!(m.step(f64::NAN, 0.0, dt), 0.0);
+        assert_eq!(m.step(50.0, dt), 5.0);
+        assert_eq!(m.step(f64::NAN, dt), 0.0);
         assert!((m.friction(1.0) - (0.1 + 0.2 * 100f64.tanh())).abs() < 1e-12);
         assert_eq!(m.friction(-1.0), -m.friction(1.0));
         assert_eq!(m.friction(0.0), 0.0);
@@ -249,11 +238,10 @@ mod tests {
     }
 
     #[test]
-    fn the_film_amplifier_is_high_pass_and_the_adc_quantizes() {
+    fn the_film_amplifier_is_high_pass() {
         // A step of the film voltage decays with the corner's time constant.
-        let mut f = FilmAmplifier::new(1.0, 10.0, 0);
+        let mut f = FilmAmplifier::new(1.0, 0.0);
         let dt = 1e-4;
-        f.step(0.0, dt);
         let y0 = f.step(1.0, dt);
         assert!(y0 > 0.99 && y0 <= 1.0, "{y0}");
         let tau = 1.0 / std::f64::consts::TAU;
@@ -264,29 +252,19 @@ mod tests {
         }
         assert!((y / y0 - (-1.0f64).exp()).abs() < 1e-3, "{}", y / y0);
         // Far above the corner a sine passes with its amplitude.
-        let mut f = FilmAmplifier::new(0.1, 10.0, 0);
+        let mut f = FilmAmplifier::new(0.1, 0.0);
         let w = std::f64::consts::TAU * 20.0;
         let mut peak: f64 = 0.0;
-        for k in 0..100_000 {
+        for k in 1..100_000 {
             let y = f.step((w * k as f64 * 1e-5).sin(), 1e-5);
             if k > 50_000 {
                 peak = peak.max(y.abs());
             }
         }
         assert!((peak - 1.0).abs() < 0.01, "{peak}");
-        // The ADC: range and 12-bit steps.
-        let mut f = FilmAmplifier::new(0.0, 10.0, 12);
-        f.step(0.0, dt);
-        f.step(20.0, dt);
-        assert_eq!(f.read(), 10.0);
-        let read = |v: f64| {
-            let mut f = FilmAmplifier::new(0.0, 10.0, 12);
-            f.step(0.0, dt);
-            f.step(v, dt);
-            f.read()
-        };
-        assert_eq!(read(0.0), read(1e-3), "one code is 4.9 mV wide");
-        assert!((read(1.0) - 1.0).abs() <= 10.0 / 4095.0);
-        assert_eq!(read(-20.0), -10.0);
+        // DC-coupled: the film voltage itself.
+        let mut f = FilmAmplifier::new(0.0, 0.3);
+        assert_eq!(f.output(), 0.3);
+        assert_eq!(f.step(-2.5, dt), -2.5);
     }
 }

@@ -16,3 +16,4 @@ pub mod sim;
 pub mod spillover;
 pub mod study;
 pub mod truth;
+pub mod truth_plant;

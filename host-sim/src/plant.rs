@@ -1,11 +1,67 @@
-//! The plant: the core's model in `f64`, integrated with the core's fixed-step RK4 (the paper's
-//! integrator), the same code the firmware's QEMU board runs in `f32`; and an adaptive
-//! Dormand–Prince 5(4) integrator to cross-check it.
+//! The plant: what the simulator's loop drives ([`Plant`]). Two implement it:
+//! - [`ModelPlant`]: the core's model in `f64` (the controller's own two modes, ideal torque
+//!   sources and film), integrated with the core's fixed-step RK4 (the paper's integrator), the
+//!   same code the firmware's QEMU board runs in `f32`;
+//! - `crate::truth_plant::TruthPlant`: link 2 with more modes, motors, amplifiers (issue 14).
+//!
+//! And an adaptive Dormand–Prince 5(4) integrator to cross-check the RK4 plant.
 
 pub use flexarm_core::plant::{State, rk4_step};
 
-use flexarm_core::Vector4;
+use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::model::Model;
+use flexarm_core::{Vector2, Vector4};
+
+/// A simulated arm as the simulator's loop sees it: commands in, measurable quantities out.
+/// Units SI; joint angles in the core's frames (`flexarm_core::model`).
+pub trait Plant {
+    /// `(θ1, θ2, δ1, δ2)` and their rates: the coordinates the controller's model has (the
+    /// first two modes of a plant with more).
+    fn state(&self) -> State<f64>;
+    /// Tip deflection of link 2 [m], every mode of the plant included.
+    fn tip(&self) -> f64;
+    /// What the film's amplifier puts out now [V] (the ADC is the simulator's).
+    fn film(&self) -> f64;
+    /// Advances by `dt` [s] with the motor torque commands `tau` [N·m] and the piezo amplifier
+    /// command `v_a` [V] held.
+    fn step(&mut self, tau: &Vector2<f64>, v_a: f64, dt: f64) -> Result<(), Diverged>;
+}
+
+/// The controller's own model as the plant: ideal torque sources, an ideal amplifier (the
+/// patch gets the command) and the film's open-circuit voltage (Eq. 19).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelPlant {
+    model: Model<f64>,
+    patch: PiezoPatch<f64>,
+    x: State<f64>,
+}
+
+impl ModelPlant {
+    /// The plant at the state `x`.
+    pub fn new(model: Model<f64>, patch: PiezoPatch<f64>, x: State<f64>) -> Self {
+        Self { model, patch, x }
+    }
+}
+
+impl Plant for ModelPlant {
+    fn state(&self) -> State<f64> {
+        self.x
+    }
+
+    fn tip(&self) -> f64 {
+        self.model.tip_deflection(&self.x.q)
+    }
+
+    fn film(&self) -> f64 {
+        self.patch.film_voltage(&self.x.q)
+    }
+
+    fn step(&mut self, tau: &Vector2<f64>, v_a: f64, dt: f64) -> Result<(), Diverged> {
+        let u = Vector4::new(tau.x, tau.y, 0.0, 0.0) + self.patch.generalized_force(v_a);
+        self.x = rk4_step(&self.model, &self.x, &u, dt).ok_or(Diverged)?;
+        Ok(())
+    }
+}
 
 /// Why the integration stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

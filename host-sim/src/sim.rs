@@ -20,7 +20,8 @@ use flexarm_core::supervisor::SensorLimits;
 use flexarm_core::trajectory::{Circle, JointTrajectory, Trapezoid};
 use flexarm_core::{Fault, Vector2, Vector4};
 
-use crate::plant::{Diverged, State, rk4_step};
+use crate::plant::{Diverged, ModelPlant, Plant, State};
+use crate::truth_plant::{self, TruthSpec};
 
 /// Loop rates and the plant step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -199,8 +200,12 @@ impl Rng {
 pub struct SimConfig {
     /// The arm the controller believes in (its model, cast to `f32`).
     pub arm: ArmParams<f64>,
-    /// The arm that is simulated; `None` = the same as `arm` (Monte Carlo perturbs it).
+    /// The arm that is simulated; `None` = the same as `arm` (Monte Carlo perturbs it). With a
+    /// truth plant, its rigid parts (link 2's body comes from the truth's link).
     pub plant: Option<ArmParams<f64>>,
+    /// The truth plant (issue 14); `None` = the controller's own model ([`ModelPlant`]).
+    /// Set it with [`SimConfig::with_truth`], which gives the controller the truncation.
+    pub truth: Option<TruthSpec>,
     /// Motor-law gains.
     pub gains: Gains<f32>,
     /// Actuator limits.
@@ -228,6 +233,7 @@ impl Default for SimConfig {
         Self {
             arm: ArmParams::default(),
             plant: None,
+            truth: None,
             gains: Gains::default(),
             limits: Limits::default(),
             law: MotorLaw::Tracking,
@@ -256,6 +262,8 @@ pub enum SimError {
         /// The plant step [s].
         plant_dt: f64,
     },
+    /// The truth plant cannot be built.
+    Truth(String),
     /// The plant diverged.
     Plant {
         /// When [s].
@@ -290,6 +298,7 @@ impl core::fmt::Display for SimError {
                 f,
                 "incompatible rates: {name} = {hz} Hz is not a whole number of plant steps of {plant_dt} s"
             ),
+            Self::Truth(e) => write!(f, "the truth plant: {e}"),
             Self::Plant { t } => write!(f, "at t = {t:.4} s: {Diverged}"),
             Self::Trajectory(e) => write!(f, "{e}"),
             Self::ObserverDesign => {
@@ -315,7 +324,7 @@ pub struct Sample {
     pub delta_seen: Vector2<f64>,
     /// Motor torques applied [N·m].
     pub tau: Vector2<f64>,
-    /// Piezo actuator voltage applied [V].
+    /// Piezo amplifier command [V] (the patch voltage with an ideal amplifier).
     pub v_a: f64,
     /// Film voltage measured [V].
     pub v_f: f64,
@@ -430,6 +439,42 @@ pub const MIN_MOTOR_SAMPLES: f64 = 10.0;
 pub const MIN_RAMP_SAMPLES: f64 = 2.0;
 
 impl SimConfig {
+    /// This run on the truth plant `spec`: the arm given so far becomes the truth's rigid
+    /// parts, and the controller gets the two-mode truncation of the truth's link
+    /// ([`truth_plant::controller_model`]).
+    pub fn with_truth(mut self, spec: TruthSpec) -> Result<Self, SimError> {
+        let rigid = self.plant.unwrap_or(self.arm);
+        let (arm, patch) = truth_plant::controller_model(&spec, &rigid, &self.patch)
+            .map_err(|e| SimError::Truth(e.to_string()))?;
+        if spec.link == truth_plant::LinkSource::Beam {
+            self.plant = Some(rigid);
+        }
+        self.arm = arm;
+        self.patch = patch;
+        self.truth = Some(spec);
+        Ok(self)
+    }
+
+    /// The plant of this run at rest at the joint angles `theta` [rad].
+    pub fn plant_at(&self, theta: Vector2<f64>) -> Result<Box<dyn Plant + Send>, SimError> {
+        let arm = self.plant.unwrap_or(self.arm);
+        match &self.truth {
+            None => Ok(Box::new(ModelPlant::new(
+                Model::new(arm),
+                self.patch,
+                State::rest(Vector4::new(theta.x, theta.y, 0.0, 0.0)),
+            ))),
+            Some(spec) => truth_plant::build(
+                spec,
+                &arm,
+                &self.patch,
+                self.limits.tau_max.cast::<f64>(),
+                theta,
+            )
+            .map_err(|e| SimError::Truth(e.to_string())),
+        }
+    }
+
     /// The one check of a run's configuration, on the values the `f32` controller will really
     /// run: the scenario loader applies it to the file, the command line again after its
     /// overrides, and [`simulate`] before it starts.
@@ -442,6 +487,10 @@ impl SimConfig {
             .map_err(SimError::Config)?;
         if let Some(p) = &self.plant {
             p.validate().map_err(SimError::Config)?;
+        }
+        if let Some(t) = &self.truth {
+            t.validate()
+                .map_err(|(key, msg)| SimError::Input { key, msg })?;
         }
         self.gains.validate().map_err(SimError::Config)?;
         self.limits.validate().map_err(SimError::Config)?;
@@ -559,12 +608,11 @@ pub fn simulate(
     let (motor_div, piezo_div) = cfg.rates.divisors()?;
     let dt = cfg.rates.plant_dt;
     let (motor_dt, piezo_dt) = (dt * motor_div as f64, dt * piezo_div as f64);
-    let plant = Model::new(cfg.plant.unwrap_or(cfg.arm));
     let mut ctrl = build(cfg, traj, motor_dt, piezo_dt)?;
     let mut rng = Rng::new(cfg.sensors.seed);
 
-    let th0 = traj.sample(0.0).q;
-    let mut x = State::rest(Vector4::new(f64::from(th0.x), f64::from(th0.y), 0.0, 0.0));
+    let th0 = traj.sample(0.0).q.cast::<f64>();
+    let mut plant = cfg.plant_at(th0)?;
     let steps = (cfg.duration / dt).round() as u64;
 
     let mut sum = Summary::default();
@@ -580,7 +628,7 @@ pub fn simulate(
     for k in 0..steps {
         let t = k as f64 * dt;
         if k % piezo_div == 0 {
-            v_f = cfg.sensors.film(cfg.patch.film_voltage(&x.q), &mut rng);
+            v_f = cfg.sensors.film(plant.film(), &mut rng);
             let cmd = match &mut ctrl {
                 Loop::Full { piezo, .. } => piezo
                     .as_mut()
@@ -596,6 +644,7 @@ pub fn simulate(
             };
         }
         if k % motor_div == 0 {
+            let x = plant.state();
             let target = traj.sample(t as f32);
             let (seen, seen_v_f) = if cfg.sensors.delay {
                 held.replace((x, v_f)).unwrap_or((x, v_f))
@@ -634,7 +683,7 @@ pub fn simulate(
             tau = new_tau;
             let err = Vector2::new(x.q.x, x.q.y) - target.q.cast::<f64>();
             let delta = Vector2::new(x.q.z, x.q.w);
-            let tip = plant.tip_deflection(&x.q);
+            let tip = plant.tip();
             l2_delta.add(&delta, motor_dt);
             l2_error.add(&err, motor_dt);
             l2_tip.add(&nalgebra::Vector1::new(tip), motor_dt);
@@ -659,8 +708,9 @@ pub fn simulate(
                 });
             }
         }
-        let u = Vector4::new(tau.x, tau.y, 0.0, 0.0) + cfg.patch.generalized_force(v_a);
-        x = rk4_step(&plant, &x, &u, dt).ok_or(SimError::Plant { t })?;
+        plant
+            .step(&tau, v_a, dt)
+            .map_err(|_| SimError::Plant { t })?;
     }
     sum.l2_delta = l2_delta.value();
     sum.l2_error = l2_error.value();

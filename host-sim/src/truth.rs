@@ -49,6 +49,8 @@ pub struct LinkBody {
     pub omega: Vec<f64>,
     /// Damping ratios `ζ_j` [-].
     pub zeta: Vec<f64>,
+    /// Tip values `φ_j(L)` [1/√kg]: the tip deflection is `Σ φ_j(L) δ_j`.
+    pub tip: Vec<f64>,
 }
 
 impl LinkBody {
@@ -78,6 +80,7 @@ impl LinkBody {
             w: ints.iter().map(|i| i.1).collect(),
             omega: pm.omega(),
             zeta: model.zeta.clone(),
+            tip: ints.iter().map(|i| i.2).collect(),
         })
     }
 
@@ -93,6 +96,7 @@ impl LinkBody {
             w: vec![md.moment_integral.x, md.moment_integral.y],
             omega: vec![md.omega.x, md.omega.y],
             zeta: vec![md.zeta.x, md.zeta.y],
+            tip: vec![md.tip.x, md.tip.y],
         }
     }
 
@@ -130,6 +134,8 @@ pub struct TruthArm<const D: usize> {
     /// `ω_j²` and `2 ζ_j ω_j` in the modal entries.
     k: Coords<D>,
     d: Coords<D>,
+    /// The motors' rotors: `(b11, b12, b22)` added to the joint block (see [`Self::with_rotors`]).
+    rotor: [f64; 3],
 }
 
 impl<const D: usize> TruthArm<D> {
@@ -142,6 +148,7 @@ impl<const D: usize> TruthArm<D> {
             || link.v.len() != n
             || link.w.len() != n
             || link.zeta.len() != n
+            || link.tip.len() != n
         {
             return Err(TruthError(format!(
                 "the link has {} modes, the arm {} coordinates: need modes = coordinates − 2 ≥ 1",
@@ -154,7 +161,8 @@ impl<const D: usize> TruthArm<D> {
             .chain(link.v.iter().copied())
             .chain(link.w.iter().copied())
             .chain(link.omega.iter().copied())
-            .chain(link.zeta.iter().copied());
+            .chain(link.zeta.iter().copied())
+            .chain(link.tip.iter().copied());
         if !all.clone().all(f64::is_finite) || link.omega.iter().any(|w| *w <= 0.0) {
             return Err(TruthError("the link's data must be finite, ω > 0".into()));
         }
@@ -178,7 +186,22 @@ impl<const D: usize> TruthArm<D> {
             w,
             k,
             d,
+            rotor: [0.0; 3],
         })
+    }
+
+    /// The arm with the motors' rotors: rotor `i` of inertia `J_ri` [kg·m²] behind a gear of
+    /// ratio `n_i` (motor turns per joint turn). Rotor 1 spins at `n1 θ̇1`; rotor 2 sits on
+    /// link 1 and spins at `θ̇1 + n2 θ̇2`, so the joint block gains
+    /// `b11 += n1² J_r1 + J_r2`, `b12 += n2 J_r2`, `b22 += n2² J_r2` (constant: no Coriolis
+    /// term; the rotors' masses are in the hubs' `m_h2`, `I_h`).
+    pub fn with_rotors(mut self, n: [f64; 2], j_r: [f64; 2]) -> Self {
+        self.rotor = [
+            n[0] * n[0] * j_r[0] + j_r[1],
+            n[1] * j_r[1],
+            n[1] * n[1] * j_r[1],
+        ];
+        self
     }
 
     /// The modal part `δ` of `q` (joint entries zero).
@@ -202,10 +225,10 @@ impl<const D: usize> TruthArm<D> {
         let jd = self.j_const + delta.dot(&delta);
         let h = self.a1 * (c2 * self.s1 - s2 * vd);
         let mut b = SMatrix::<f64, D, D>::identity();
-        b[(0, 0)] = self.a_const + jd + 2.0 * h;
-        b[(0, 1)] = jd + h;
-        b[(1, 0)] = jd + h;
-        b[(1, 1)] = jd;
+        b[(0, 0)] = self.a_const + jd + 2.0 * h + self.rotor[0];
+        b[(0, 1)] = jd + h + self.rotor[1];
+        b[(1, 0)] = b[(0, 1)];
+        b[(1, 1)] = jd + self.rotor[2];
         for j in 2..D {
             let b1 = self.a1 * c2 * self.v[j] + self.w[j];
             b[(0, j)] = b1;
@@ -283,7 +306,19 @@ impl<const D: usize> TruthArm<D> {
         u: &Coords<D>,
         dt: f64,
     ) -> Option<(Coords<D>, Coords<D>)> {
-        let f = |q: &Coords<D>, qd: &Coords<D>| Some((*qd, self.acceleration(q, qd, u)?));
+        self.rk4_with(q, qd, dt, |_| *u)
+    }
+
+    /// One RK4 step of `dt` [s] with the generalized forces `u(q̇)` (friction depends on the
+    /// joint speeds). `None` if the state leaves the model.
+    pub fn rk4_with(
+        &self,
+        q: &Coords<D>,
+        qd: &Coords<D>,
+        dt: f64,
+        u: impl Fn(&Coords<D>) -> Coords<D>,
+    ) -> Option<(Coords<D>, Coords<D>)> {
+        let f = |q: &Coords<D>, qd: &Coords<D>| Some((*qd, self.acceleration(q, qd, &u(qd))?));
         let (k1q, k1v) = f(q, qd)?;
         let (k2q, k2v) = f(&(q + k1q * (dt / 2.0)), &(qd + k1v * (dt / 2.0)))?;
         let (k3q, k3v) = f(&(q + k2q * (dt / 2.0)), &(qd + k2v * (dt / 2.0)))?;
