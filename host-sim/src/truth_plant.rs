@@ -209,13 +209,13 @@ impl TruthSpec {
                 "rad/s",
             )?;
         }
-        if !(self.amplifier_hz > 0.0) || self.amplifier_hz.is_nan() {
+        if self.amplifier_hz.is_nan() || self.amplifier_hz <= 0.0 {
             return bad(
                 "plant.amplifier_hz",
                 format!("{} Hz must be > 0 (inf: ideal)", self.amplifier_hz),
             );
         }
-        if !(self.amplifier_current > 0.0) || self.amplifier_current.is_nan() {
+        if self.amplifier_current.is_nan() || self.amplifier_current <= 0.0 {
             return bad(
                 "plant.amplifier_current",
                 format!("{} A must be > 0 (inf: ideal)", self.amplifier_current),
