@@ -281,11 +281,36 @@ impl<const D: usize> TruthArm<D> {
 
     /// `q̈` for the generalized forces `u`: `B q̈ = u − C q̇ − K q − D q̇`. `None` if `B` is not
     /// positive definite (a state outside the model).
+    ///
+    /// `B = [[P, Q], [Qᵀ, I]]` (unit modal mass) is solved through the 2×2 Schur complement
+    /// `S = P − Q Qᵀ`, positive definite exactly when `B` is:
+    /// `S q̈_θ = r_θ − Q r_δ`, `q̈_δ = r_δ − Qᵀ q̈_θ`.
     pub fn acceleration(&self, q: &Coords<D>, qd: &Coords<D>, u: &Coords<D>) -> Option<Coords<D>> {
-        let rhs = u - self.coriolis(q, qd) - self.k.component_mul(q) - self.d.component_mul(qd);
-        let chol = self.inertia(q).cholesky()?;
-        let a = chol.solve(&rhs);
-        a.iter().all(|x| x.is_finite()).then_some(a)
+        let mut r = u - self.coriolis(q, qd) - self.k.component_mul(q) - self.d.component_mul(qd);
+        let b = self.inertia(q);
+        // Rows 0 and 1 of Q are b[(0, 2..)] and b[(1, 2..)]; their joint entries are skipped.
+        let (mut s11, mut s12, mut s22) = (b[(0, 0)], b[(0, 1)], b[(1, 1)]);
+        let (mut r0, mut r1) = (r[0], r[1]);
+        for j in 2..D {
+            let (q0, q1) = (b[(0, j)], b[(1, j)]);
+            s11 -= q0 * q0;
+            s12 -= q0 * q1;
+            s22 -= q1 * q1;
+            r0 -= q0 * r[j];
+            r1 -= q1 * r[j];
+        }
+        let det = s11 * s22 - s12 * s12;
+        if !(s11 > 0.0 && det > 0.0) {
+            return None;
+        }
+        let a0 = (s22 * r0 - s12 * r1) / det;
+        let a1 = (s11 * r1 - s12 * r0) / det;
+        for j in 2..D {
+            r[j] -= b[(0, j)] * a0 + b[(1, j)] * a1;
+        }
+        r[0] = a0;
+        r[1] = a1;
+        r.iter().all(|x| x.is_finite()).then_some(r)
     }
 
     /// Kinetic plus elastic energy `½ q̇ᵀ B q̇ + ½ δᵀ Ω² δ` [J].

@@ -20,7 +20,8 @@
 //! those coordinates. The core writes link 2's rigid part as a uniform rod (`m2 a2/2`,
 //! `m2 a2²/3`); the truth's link has mass `m`, first moment `S1` and second moment `S2`, so
 //! `m2 = 2 S1/a2`, `m_h2 ← m_h2 + m − m2` (the same `(m_h2 + m2) a1²`) and
-//! `I_2x ← I_2x + S2 − m2 a2²/3`. The rotors are not in the controller's model.
+//! `I_h2 + I_2x ← I_h2 + I_2x + S2 − m2 a2²/3` (only the sum enters). The rotors are not in the
+//! controller's model.
 //!
 //! ## Integration
 //! RK4 at the simulator's plant step (default 0.1 ms) is adequate to N = 10 on the default
@@ -320,7 +321,7 @@ impl Default for TruthSpec {
 }
 
 /// The default beam thickness [m] (docs/results.md: the consistent arm).
-pub const DEFAULT_THICKNESS: f64 = 0.8e-3;
+pub const DEFAULT_THICKNESS: f64 = 2.5e-3;
 
 /// The two-mode model the controller runs for this truth plant (module docs): the core's
 /// arm and patch. For [`LinkSource::Arm`], `arm` and `patch` themselves.
@@ -341,7 +342,11 @@ pub fn controller_model(
     let mut c = *arm;
     c.m2 = m2;
     c.m_h2 = arm.m_h2 + body.mass - m2;
-    c.i_2_extra = arm.i_2_extra + body.second_moment - m2 * arm.a2 * arm.a2 / 3.0;
+    // Only I_h2 + I_2x enters the core's model: the correction goes to I_2x, and to I_h2 for
+    // the part that would make I_2x negative.
+    let j = arm.i_h2 + arm.i_2_extra + body.second_moment - m2 * arm.a2 * arm.a2 / 3.0;
+    c.i_2_extra = (arm.i_2_extra + body.second_moment - m2 * arm.a2 * arm.a2 / 3.0).max(0.0);
+    c.i_h2 = j - c.i_2_extra;
     let v2 = |v: &[f64]| Vector2::new(v[0], v[1]);
     c.modes = ModalData {
         omega: v2(&body.omega),
@@ -378,7 +383,9 @@ pub struct TruthPlant<const D: usize> {
 }
 
 impl<const D: usize> TruthPlant<D> {
-    fn new(
+    /// The plant of `spec` (whose `modes` must be `D − 2`) at rest at the joint angles
+    /// `theta` [rad]; the arguments as for [`build`].
+    pub fn new(
         spec: &TruthSpec,
         arm: &ArmParams<f64>,
         patch: &PiezoPatch<f64>,

@@ -1,0 +1,285 @@
+//! The truth plant behind the simulator's loop (`flexarm_sim::truth_plant`): today's plant
+//! when it has the controller's two modes and ideal actuators, the beam's frequencies, energy
+//! balanced with friction and damping, convergence in the number of modes, RK4 adequate at the
+//! default step, and a closed loop within bounds derived from the friction.
+//! `cargo test -p flexarm-sim --test truth_plant -- --nocapture` prints the figures.
+
+use flexarm_core::Vector2;
+use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
+use flexarm_core::params::ArmParams;
+use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
+use flexarm_sim::plant::Plant;
+use flexarm_sim::sim::{Sensors, SimConfig, StateSource, simulate};
+use flexarm_sim::truth::Coords;
+use flexarm_sim::truth_plant::{MotorSpec, TruthPlant, TruthSpec};
+
+fn paper() -> JointTrajectory<f32> {
+    JointTrajectory::Trapezoid(Trapezoid::paper())
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs().max(1e-300)
+}
+
+/// A plant of `spec` with `N = D − 2` modes on the paper's arm and patch, at rest at θ = 0.
+fn plant<const D: usize>(spec: &TruthSpec) -> TruthPlant<D> {
+    TruthPlant::<D>::new(
+        spec,
+        &ArmParams::default(),
+        &PiezoPatch::paper(),
+        Vector2::new(10.0, 10.0),
+        Vector2::zeros(),
+    )
+    .unwrap()
+}
+
+#[test]
+fn two_modes_with_ideal_actuators_are_todays_plant() {
+    // The scenario's own arm as a truth plant, through the whole loop: full state and the
+    // firmware's observer with realistic sensors.
+    for (state, sensors) in [
+        (StateSource::Full, Sensors::default()),
+        (StateSource::Observer, Sensors::realistic()),
+    ] {
+        let cfg = SimConfig {
+            piezo: Some(PiezoGains::default()),
+            state,
+            sensors,
+            ..SimConfig::default()
+        };
+        let truth = cfg.with_truth(TruthSpec::model()).unwrap();
+        let (a, ta) = simulate(&cfg, &paper(), true).unwrap();
+        let (b, tb) = simulate(&truth, &paper(), true).unwrap();
+        let worst = ta
+            .iter()
+            .zip(&tb)
+            .map(|(x, y)| (x.x.q - y.x.q).abs().max())
+            .fold(0.0, f64::max);
+        println!("{state:?}: largest difference of q over the run {worst:.1e}");
+        assert!(worst < 1e-12, "{worst:e}");
+        assert!(rel(b.l2_error, a.l2_error) < 1e-9, "{a:?}\n{b:?}");
+        assert!(rel(b.l2_delta, a.l2_delta) < 1e-9, "{a:?}\n{b:?}");
+    }
+}
+
+#[test]
+fn the_controllers_model_is_the_truncation_of_the_beam() {
+    // Two modes of the beam with ideal actuators against the core's model built from the
+    // controller's parameters (`controller_model`): the same run.
+    let spec = TruthSpec {
+        modes: 2,
+        ..TruthSpec::default().ideal_actuators()
+    };
+    let cfg = SimConfig {
+        piezo: Some(PiezoGains::default()),
+        ..SimConfig::default()
+    }
+    .with_truth(spec)
+    .unwrap();
+    let model = SimConfig {
+        truth: None,
+        plant: None,
+        ..cfg
+    };
+    let (a, _) = simulate(&model, &paper(), false).unwrap();
+    let (b, _) = simulate(&cfg, &paper(), false).unwrap();
+    println!(
+        "beam, 2 modes: Eq. 37 θ̃ {:.6e} vs the controller's model {:.6e}",
+        b.l2_error, a.l2_error
+    );
+    assert!(rel(b.l2_error, a.l2_error) < 1e-9, "{a:?}\n{b:?}");
+    assert!(rel(b.l2_delta, a.l2_delta) < 1e-9, "{a:?}\n{b:?}");
+    assert!(rel(b.max_tip, a.max_tip) < 1e-9, "{a:?}\n{b:?}");
+}
+
+#[test]
+fn with_the_joints_held_the_plant_has_the_beams_frequencies() {
+    // Linearize the plant's restoring forces at rest by central differences of B(q) q̈(q):
+    // with θ held the modal block gives K_δδ, whose eigenvalues against B_δδ are ω_j².
+    const D: usize = 12;
+    let spec = TruthSpec {
+        modes: 10,
+        ..TruthSpec::default()
+    };
+    let p = plant::<D>(&spec);
+    let arm = p.arm();
+    let q0 = Coords::<D>::zeros();
+    let zero = Coords::<D>::zeros();
+    let force = |q: &Coords<D>| arm.inertia(q) * arm.acceleration(q, &zero, &zero).unwrap();
+    let h = 1e-7;
+    let n = D - 2;
+    let mut k = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for j in 0..n {
+        let mut e = Coords::<D>::zeros();
+        e[2 + j] = h;
+        let col = (force(&(q0 + e)) - force(&(q0 - e))) / (2.0 * h);
+        for i in 0..n {
+            k[(i, j)] = -col[2 + i];
+        }
+    }
+    let b = arm.inertia(&q0).view((2, 2), (n, n)).into_owned();
+    let chol = b.cholesky().unwrap();
+    let l_inv = chol.l().try_inverse().unwrap();
+    let sym = &l_inv * k * l_inv.transpose();
+    let mut w: Vec<f64> = sym
+        .symmetric_eigenvalues()
+        .iter()
+        .map(|l| l.sqrt())
+        .collect();
+    w.sort_by(f64::total_cmp);
+    // The beam's own eigen-solution (a root search of its transfer-matrix determinant).
+    let mut model = flexarm_beam::design::DesignModel {
+        zeta: vec![0.0; n],
+        lambda: vec![1.0; n],
+        ..Default::default()
+    };
+    model.layers.material.t_b = spec.thickness;
+    let beam = model.beam(0.09, 0.35).unwrap().frequencies(n).unwrap();
+    for (j, (a, b)) in w.iter().zip(&beam).enumerate() {
+        assert!(rel(*a, *b) < 1e-6, "mode {}: {a} vs {b}", j + 1);
+    }
+    println!(
+        "joints held, ten modes: {:?} Hz",
+        w.iter()
+            .map(|x| format!("{:.2}", x / std::f64::consts::TAU))
+            .collect::<Vec<_>>()
+    );
+}
+
+/// Tip deflection after a 20 ms, 2 N·m pulse on joint 2, motors otherwise off, ideal
+/// actuators: one sample per millisecond over 1 s.
+fn pulse_response<const D: usize>(dt: f64) -> Vec<f64> {
+    let spec = TruthSpec {
+        modes: D - 2,
+        ..TruthSpec::default().ideal_actuators()
+    };
+    let mut p = plant::<D>(&spec);
+    let steps = (1.0 / dt).round() as usize;
+    let every = (1e-3 / dt).round() as usize;
+    let mut out = Vec::new();
+    for k in 0..steps {
+        let tau = if (k as f64) * dt < 0.02 { 2.0 } else { 0.0 };
+        p.step(&Vector2::new(0.0, tau), 0.0, dt).unwrap();
+        if (k + 1) % every == 0 {
+            out.push(p.tip());
+        }
+    }
+    out
+}
+
+fn largest_difference(a: &[f64], b: &[f64]) -> f64 {
+    let peak = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+        / peak
+}
+
+#[test]
+fn the_tip_response_converges_in_the_number_of_modes() {
+    let ten = pulse_response::<12>(1e-4);
+    let six = largest_difference(&pulse_response::<8>(1e-4), &ten);
+    let two = largest_difference(&pulse_response::<4>(1e-4), &ten);
+    println!(
+        "torque pulse on joint 2, tip over 1 s, largest difference to N = 10 relative to its peak: N = 6 {six:.2e}, N = 2 {two:.2e}"
+    );
+    assert!(six < 3e-5, "{six:e}");
+    // The test can fail: two modes are visibly different.
+    assert!(two > 30.0 * six, "{two:e} vs {six:e}");
+}
+
+#[test]
+fn rk4_at_the_default_step_is_adequate_with_ten_modes() {
+    let coarse = pulse_response::<12>(1e-4);
+    let fine = pulse_response::<12>(1e-5);
+    let d = largest_difference(&coarse, &fine);
+    println!("ten modes, tip: RK4 at 0.1 ms against 0.01 ms: {d:.2e} of the peak");
+    assert!(d < 2e-7, "{d:e}");
+}
+
+#[test]
+fn energy_balances_the_work_of_the_motors_friction_and_damping() {
+    // Six modes, damped, motors with friction (instant current loops so the torque is the
+    // command), a torque pulse on both joints: E(t) − E(0) = ∫ τᵀθ̇ − ∫ F(θ̇)ᵀθ̇ − ∫ q̇ᵀDq̇.
+    const D: usize = 8;
+    let spec = TruthSpec {
+        motors: [MotorSpec {
+            current_tau: 0.0,
+            ..MotorSpec::DRIVE
+        }; 2],
+        ..TruthSpec::default().ideal_actuators()
+    };
+    let mut p = plant::<D>(&spec);
+    let dt = 1e-5;
+    let power = |p: &TruthPlant<D>, tau: &Vector2<f64>| {
+        let (_, qd) = p.coordinates();
+        let f = p.friction(&qd);
+        let joints = Vector2::new(qd[0], qd[1]);
+        (
+            tau.dot(&joints),
+            f.dot(&joints) + p.arm().damping_power(&qd),
+        )
+    };
+    let energy = |p: &TruthPlant<D>| {
+        let (q, qd) = p.coordinates();
+        p.arm().energy(&q, &qd)
+    };
+    let e0 = energy(&p);
+    let (mut work, mut lost) = (0.0, 0.0);
+    for k in 0..100_000 {
+        let tau = if k < 10_000 {
+            Vector2::new(1.0, -0.5)
+        } else {
+            Vector2::zeros()
+        };
+        let (w0, l0) = power(&p, &tau);
+        p.step(&tau, 0.0, dt).unwrap();
+        let (w1, l1) = power(&p, &tau);
+        work += 0.5 * (w0 + w1) * dt;
+        lost += 0.5 * (l0 + l1) * dt;
+    }
+    let gap = (energy(&p) - e0 - work + lost).abs();
+    println!(
+        "1 s: motors' work {work:.4e} J, friction and damping {lost:.4e} J, balance off by {gap:.1e} J"
+    );
+    assert!(
+        lost > 0.5 * work,
+        "the test must dissipate: {lost} of {work}"
+    );
+    assert!(gap < 1e-8 * work, "{gap:e} of {work:e}");
+}
+
+#[test]
+fn the_paper_move_on_the_truth_plant_stays_within_the_friction_bound() {
+    // Eq. 7 + piezo, six modes, real drives and amplifiers. At rest Eq. 7 pushes back with
+    // K_p Λ θ̃ only, so Coulomb friction F_c can hold a joint anywhere within
+    // |θ̃| ≤ F_c / (K_p Λ): the settled error's bound. The vibration: within 10 % of the same
+    // run with ideal actuators, and the modes past the second hold a small share of δ.
+    let spec = TruthSpec::default();
+    let cfg = SimConfig {
+        piezo: Some(PiezoGains::default()),
+        ..SimConfig::default()
+    };
+    let real = cfg.with_truth(spec).unwrap();
+    let ideal = cfg.with_truth(spec.ideal_actuators()).unwrap();
+    let (s, _) = simulate(&real, &paper(), false).unwrap();
+    let (si, _) = simulate(&ideal, &paper(), false).unwrap();
+    let g = &real.gains;
+    for i in 0..2 {
+        let bound = spec.motors[i].coulomb / f64::from(g.kp[i] * g.lambda[i]);
+        println!(
+            "joint {}: Eq. 38 mean |θ̃| {:.2e} rad, friction bound {bound:.2e} rad",
+            i + 1,
+            s.tail_error_abs[i]
+        );
+        assert!(s.tail_error_abs[i] <= bound, "{s:?}");
+    }
+    println!(
+        "Eq. 37 δ: real drives {:.3e}, ideal {:.3e}; max tip {:.4} m vs {:.4} m",
+        s.l2_delta, si.l2_delta, s.max_tip, si.max_tip
+    );
+    assert!(rel(s.l2_delta, si.l2_delta) < 0.1, "{s:?}\n{si:?}");
+    assert!(rel(s.max_tip, si.max_tip) < 0.1, "{s:?}\n{si:?}");
+    assert!(s.max_v_a <= 200.0);
+}
