@@ -32,6 +32,7 @@ use flexarm_core::{Vector2, Vector4};
 use serde::Deserialize;
 
 use crate::sim::{Rates, SimConfig, StateSource};
+use crate::truth_plant::{MAX_MODES, TruthSpec};
 
 /// A readable, one-line error about a scenario file.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -64,6 +65,141 @@ struct File {
     sensors: SensorsSpec,
     /// A `[piezo]` table as written by `flexarm-sim optimize` (read by `flexarm_beam`).
     piezo: Option<toml::Table>,
+    plant: Option<PlantSpec>,
+}
+
+/// The `[plant]` table: the controller's own model (default) or the truth plant.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlantSpec {
+    kind: PlantKind,
+    link: Option<LinkSpec>,
+    modes: Option<usize>,
+    thickness: Option<f64>,
+    tip_mass: Option<f64>,
+    tip_inertia: Option<f64>,
+    zeta: Option<Vec<f64>>,
+    ideal: Option<bool>,
+    current_tau: Option<[f64; 2]>,
+    gear_ratio: Option<[f64; 2]>,
+    rotor_inertia: Option<[f64; 2]>,
+    viscous: Option<[f64; 2]>,
+    coulomb: Option<[f64; 2]>,
+    coulomb_speed: Option<[f64; 2]>,
+    amplifier_hz: Option<f64>,
+    amplifier_window: Option<[f64; 2]>,
+    amplifier_current: Option<f64>,
+    capacitance: Option<f64>,
+    film_corner_hz: Option<f64>,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum PlantKind {
+    Model,
+    Truth,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum LinkSpec {
+    Beam,
+    Arm,
+}
+
+impl PlantSpec {
+    /// The truth plant this table describes (`None`: the controller's own model).
+    fn truth(&self) -> Result<Option<TruthSpec>, ScenarioError> {
+        if self.kind == PlantKind::Model {
+            let scalars = [
+                self.thickness,
+                self.tip_mass,
+                self.tip_inertia,
+                self.amplifier_hz,
+                self.amplifier_current,
+                self.capacitance,
+                self.film_corner_hz,
+            ];
+            let pairs = [
+                self.current_tau,
+                self.gear_ratio,
+                self.rotor_inertia,
+                self.viscous,
+                self.coulomb,
+                self.coulomb_speed,
+                self.amplifier_window,
+            ];
+            return match self.link.is_some()
+                || self.modes.is_some()
+                || self.zeta.is_some()
+                || self.ideal.is_some()
+                || scalars.iter().any(Option::is_some)
+                || pairs.iter().any(Option::is_some)
+            {
+                true => err(
+                    "`plant.kind` = \"model\" takes no other key of `[plant]`: set `kind = \"truth\"`",
+                ),
+                false => Ok(None),
+            };
+        }
+        let mut t = TruthSpec::default();
+        if let Some(LinkSpec::Arm) = self.link {
+            t = TruthSpec::model();
+        }
+        if self.ideal == Some(true) {
+            t = t.ideal_actuators();
+        }
+        if let Some(n) = self.modes {
+            if !(1..=MAX_MODES).contains(&n) {
+                return err(format!("`plant.modes` = {n} must be 1 to {MAX_MODES}"));
+            }
+            t.modes = n;
+        }
+        let set = |dst: &mut f64, v: Option<f64>| {
+            if let Some(v) = v {
+                *dst = v;
+            }
+        };
+        set(&mut t.thickness, self.thickness);
+        set(&mut t.tip_mass, self.tip_mass);
+        set(&mut t.tip_inertia, self.tip_inertia);
+        set(&mut t.amplifier_hz, self.amplifier_hz);
+        set(&mut t.amplifier_current, self.amplifier_current);
+        set(&mut t.capacitance, self.capacitance);
+        set(&mut t.film_corner_hz, self.film_corner_hz);
+        if let Some(w) = self.amplifier_window {
+            t.amplifier_window = w;
+        }
+        if let Some(z) = &self.zeta {
+            if z.is_empty() || z.len() > t.modes {
+                return err(format!(
+                    "`plant.zeta` has {} values: give 1 to `modes` = {} (the last one serves the modes after it)",
+                    z.len(),
+                    t.modes
+                ));
+            }
+            for j in 0..MAX_MODES {
+                t.zeta[j] = z[j.min(z.len() - 1)];
+            }
+        }
+        for (i, m) in t.motors.iter_mut().enumerate() {
+            for (dst, src) in [
+                (&mut m.current_tau, self.current_tau),
+                (&mut m.gear_ratio, self.gear_ratio),
+                (&mut m.rotor_inertia, self.rotor_inertia),
+                (&mut m.viscous, self.viscous),
+                (&mut m.coulomb, self.coulomb),
+                (&mut m.coulomb_speed, self.coulomb_speed),
+            ] {
+                if let Some(v) = src {
+                    *dst = v[i];
+                }
+            }
+        }
+        t.validate()
+            .map_err(|(key, msg)| ScenarioError(format!("`{key}`: {msg}")))?;
+        Ok(Some(t))
+    }
 }
 
 /// The `[trajectory]` table: a plain struct (not a tagged enum) so that TOML errors keep the
@@ -600,6 +736,17 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             JointTrajectory::Hold(held)
         }
     };
+    if let Some(t) = f
+        .plant
+        .as_ref()
+        .map(PlantSpec::truth)
+        .transpose()?
+        .flatten()
+    {
+        cfg = cfg
+            .with_truth(t)
+            .map_err(|e| ScenarioError(format!("[plant]: {e}")))?;
+    }
     cfg.validate(&trajectory)
         .map_err(|e| ScenarioError(e.to_string()))?;
     let name = f.name.unwrap_or_else(|| "scenario".into());

@@ -191,24 +191,12 @@ impl TruthSpec {
             range("plant.omega_scale", *s, 0.1, 10.0, "")?;
         }
         for m in &self.motors {
-            range("plant.motor.current_tau", m.current_tau, 0.0, 1.0, "s")?;
-            range("plant.motor.gear_ratio", m.gear_ratio, 1e-3, 1e4, "")?;
-            range(
-                "plant.motor.rotor_inertia",
-                m.rotor_inertia,
-                0.0,
-                1.0,
-                "kg m^2",
-            )?;
-            range("plant.motor.viscous", m.viscous, 0.0, 1e3, "N m s/rad")?;
-            range("plant.motor.coulomb", m.coulomb, 0.0, 1e3, "N m")?;
-            range(
-                "plant.motor.coulomb_speed",
-                m.coulomb_speed,
-                1e-6,
-                10.0,
-                "rad/s",
-            )?;
+            range("plant.current_tau", m.current_tau, 0.0, 1.0, "s")?;
+            range("plant.gear_ratio", m.gear_ratio, 1e-3, 1e4, "")?;
+            range("plant.rotor_inertia", m.rotor_inertia, 0.0, 1.0, "kg m^2")?;
+            range("plant.viscous", m.viscous, 0.0, 1e3, "N m s/rad")?;
+            range("plant.coulomb", m.coulomb, 0.0, 1e3, "N m")?;
+            range("plant.coulomb_speed", m.coulomb_speed, 1e-6, 10.0, "rad/s")?;
         }
         if self.amplifier_hz.is_nan() || self.amplifier_hz <= 0.0 {
             return bad(

@@ -444,6 +444,31 @@ fn errors_name_the_file_the_line_and_the_key() {
             "[trajectory]\nkind = \"trapezoid\"\nmove_time = \n",
             ":3: ",
         ),
+        (
+            "modes.toml",
+            "[trajectory]\nkind = \"trapezoid\"\n\n[plant]\nkind = \"truth\"\nmodes = 11\n",
+            ":6: `plant.modes`",
+        ),
+        (
+            "friction.toml",
+            "[trajectory]\nkind = \"trapezoid\"\n\n[plant]\nkind = \"truth\"\ncoulomb = [0.1, nan]\n",
+            ":6: `plant.coulomb`",
+        ),
+        (
+            "window.toml",
+            "[trajectory]\nkind = \"trapezoid\"\n\n[plant]\nkind = \"truth\"\n\namplifier_window = [10, 200]\n",
+            ":7: `plant.amplifier_window`",
+        ),
+        (
+            "model.toml",
+            "[trajectory]\nkind = \"trapezoid\"\n\n[plant]\nkind = \"model\"\nmodes = 4\n",
+            ":5: `plant.kind`",
+        ),
+        (
+            "armlink.toml",
+            "[trajectory]\nkind = \"trapezoid\"\n\n[plant]\nkind = \"truth\"\nlink = \"arm\"\nmodes = 6\n",
+            ":7: `plant.modes`",
+        ),
     ] {
         let p = scratch(name, text);
         let (ok, _, stderr) = sim(&["run", p.to_str().unwrap(), "--no-plots"]);
