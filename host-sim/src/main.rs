@@ -8,6 +8,7 @@ use clap::{Args, Parser, Subcommand};
 use flexarm_sim::outdir::{OutDir, write_atomic};
 use flexarm_sim::sim::Rates;
 use flexarm_sim::study::{self, Case, Options, Outcome};
+use flexarm_sim::truth_plant::TruthSpec;
 use flexarm_sim::{firmware_params, montecarlo, output, scenario};
 
 #[derive(Parser)]
@@ -77,6 +78,8 @@ enum Command {
         /// Replace files of the same names that no flexarm command wrote.
         #[arg(long)]
         force: bool,
+        #[command(flatten)]
+        plant: PlantArgs,
     },
 }
 
@@ -103,6 +106,45 @@ struct Common {
     /// Run length [s].
     #[arg(long)]
     duration: Option<f64>,
+    #[command(flatten)]
+    plant: PlantArgs,
+}
+
+/// Which plant the study runs on.
+#[derive(Args)]
+struct PlantArgs {
+    /// `model`: the controller's own two-mode model; `truth`: the truth plant (link 2 with
+    /// --modes modes, real drives and amplifiers), next to the controller's model of that arm.
+    #[arg(long, value_enum, default_value_t = PlantKind::Model)]
+    plant: PlantKind,
+    /// Modes of the truth plant's link 2, 1 to 10 [default: 6].
+    #[arg(long)]
+    modes: Option<usize>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum PlantKind {
+    Model,
+    Truth,
+}
+
+impl PlantArgs {
+    /// The truth plant asked for, checked.
+    fn truth(&self) -> Result<Option<TruthSpec>> {
+        if self.plant == PlantKind::Model {
+            return match self.modes {
+                Some(_) => Err("--modes needs --plant truth".into()),
+                None => Ok(None),
+            };
+        }
+        let d = TruthSpec::default();
+        let t = TruthSpec {
+            modes: self.modes.unwrap_or(d.modes),
+            ..d
+        };
+        t.validate().map_err(|(_, msg)| format!("--modes: {msg}"))?;
+        Ok(Some(t))
+    }
 }
 
 impl Common {
@@ -174,7 +216,10 @@ fn run_cases(
 fn main_result(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Paper(common) => {
-            let mut opts = Options::default();
+            let mut opts = Options {
+                truth: common.plant.truth()?,
+                ..Options::default()
+            };
             common.apply(&mut opts.rates, &mut opts.duration);
             let cases = study::paper_cases(&opts).map_err(|e| e.to_string())?;
             for c in &cases {
@@ -194,6 +239,17 @@ fn main_result(cli: Cli) -> Result<()> {
         Command::Run { scenario, common } => {
             let sc = scenario::load(&scenario).map_err(|e| e.to_string())?;
             let mut config = sc.config;
+            if let Some(t) = common.plant.truth()? {
+                if config.truth.is_some() {
+                    return Err(format!(
+                        "{}: the file's [plant] table chooses the plant: drop --plant",
+                        scenario.display()
+                    ));
+                }
+                config = config
+                    .with_truth(t)
+                    .map_err(|e| format!("{}: --plant truth: {e}", scenario.display()))?;
+            }
             common.apply(&mut config.rates, &mut config.duration);
             // The overrides go through the same check as the file.
             config.validate(&sc.trajectory).map_err(|e| {
@@ -274,7 +330,9 @@ fn main_result(cli: Cli) -> Result<()> {
             out,
             no_plots,
             force,
+            plant,
         } => {
+            let truth = plant.truth()?;
             // About 5 ms of computing per run: 100 000 runs per level take some 15 minutes.
             if !(1..=montecarlo::MAX_RUNS).contains(&runs) {
                 return Err(format!(
@@ -282,8 +340,16 @@ fn main_result(cli: Cli) -> Result<()> {
                     montecarlo::MAX_RUNS
                 ));
             }
-            let batches = montecarlo::run(&[0.1, 0.2], runs, seed, true);
+            let batches =
+                montecarlo::run(&[0.1, 0.2], runs, seed, truth, true).map_err(|e| e.to_string())?;
             let report = montecarlo::report(&batches);
+            let report = match truth {
+                Some(t) => format!(
+                    "On the truth plant: link 2 with {} modes, real drives and amplifiers (docs/results.md); every mode's frequency and damping perturbed too.\n\n{report}",
+                    t.modes
+                ),
+                None => report,
+            };
             let dir = OutDir::open(&out, "montecarlo", force)?;
             let path = dir.staging().join("montecarlo.md");
             std::fs::write(&path, format!("# Monte Carlo robustness\n\n{report}"))

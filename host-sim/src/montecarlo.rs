@@ -12,7 +12,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use plotters::prelude::*;
 use rayon::prelude::*;
 
-use crate::sim::{Rng, SimConfig, Summary, simulate};
+use crate::sim::{Rng, SimConfig, SimError, Summary, simulate};
+use crate::truth_plant::TruthSpec;
 
 /// Tracking bounds a run must keep to count as a success.
 pub mod bounds {
@@ -67,13 +68,24 @@ fn within(s: &Summary) -> bool {
 /// Most runs per perturbation level the command accepts.
 pub const MAX_RUNS: usize = 100_000;
 
-/// Runs `runs` perturbed copies of the paper's trapezoid move under Eq. 7 + piezo, at each level.
-pub fn run(levels: &[f64], runs: usize, seed: u64, progress: bool) -> Vec<Batch> {
+/// Runs `runs` perturbed copies of the paper's trapezoid move under Eq. 7 + piezo, at each level,
+/// on the controller's own model or on the truth plant `truth` (then every mode's frequency
+/// and damping ratio is perturbed, and the controller keeps the nominal truncation).
+pub fn run(
+    levels: &[f64],
+    runs: usize,
+    seed: u64,
+    truth: Option<TruthSpec>,
+    progress: bool,
+) -> Result<Vec<Batch>, SimError> {
     let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
-    let base = SimConfig {
+    let mut base = SimConfig {
         piezo: Some(PiezoGains::default()),
         ..SimConfig::default()
     };
+    if let Some(t) = truth {
+        base = base.with_truth(t)?;
+    }
     let bar = if progress {
         ProgressBar::new((levels.len() * runs) as u64)
     } else {
@@ -91,8 +103,17 @@ pub fn run(levels: &[f64], runs: usize, seed: u64, progress: bool) -> Vec<Batch>
                     let mut rng = Rng::new(
                         seed ^ (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ level.to_bits(),
                     );
+                    let plant = Some(perturb(&base.plant.unwrap_or(base.arm), level, &mut rng));
+                    let truth = base.truth.map(|mut t| {
+                        for j in 0..t.modes {
+                            t.omega_scale[j] *= 1.0 + level * (2.0 * rng.uniform() - 1.0);
+                            t.zeta[j] *= 1.0 + level * (2.0 * rng.uniform() - 1.0);
+                        }
+                        t
+                    });
                     let cfg = SimConfig {
-                        plant: Some(perturb(&base.arm, level, &mut rng)),
+                        plant,
+                        truth,
                         ..base
                     };
                     let r = simulate(&cfg, &traj, false).ok().map(|(s, _)| s);
@@ -104,7 +125,7 @@ pub fn run(levels: &[f64], runs: usize, seed: u64, progress: bool) -> Vec<Batch>
         })
         .collect();
     bar.finish_and_clear();
-    out
+    Ok(out)
 }
 
 fn percentile(sorted: &[f64], p: f64) -> f64 {

@@ -8,6 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use crate::sim::{Rates, Sample, Sensors, SimConfig, SimError, StateSource, Summary, simulate};
+use crate::truth_plant::TruthSpec;
 
 /// One run of the study.
 #[derive(Clone, Debug)]
@@ -40,6 +41,9 @@ pub struct Options {
     pub rates: Rates,
     /// Run length [s].
     pub duration: f64,
+    /// Also run every case on this truth plant, next to the controller's own model of the same
+    /// arm (its truncation).
+    pub truth: Option<TruthSpec>,
 }
 
 impl Default for Options {
@@ -47,6 +51,7 @@ impl Default for Options {
         Self {
             rates: Rates::default(),
             duration: 5.0,
+            truth: None,
         }
     }
 }
@@ -60,8 +65,40 @@ pub fn printed_circle_error() -> Option<String> {
 
 /// The cases: trapezoid and (reachable) circle, each under Eq. 7, Eq. 7 + piezo, Eq. 16 and
 /// Eq. 16 + piezo with the full state (the paper's setting); plus the paper's printed gains and
-/// the firmware's observer with realistic sensors, for comparison.
+/// the firmware's observer with realistic sensors, for comparison. With `opts.truth` each case
+/// runs twice instead: on the truth plant (scenario `…_truth`) and on the controller's own
+/// model of that arm (`…_model`), so the difference is the truncation and the hardware.
 pub fn paper_cases(opts: &Options) -> Result<Vec<Case>, SimError> {
+    let cases = paper_arm_cases(opts)?;
+    let Some(spec) = opts.truth else {
+        return Ok(cases);
+    };
+    let mut out = Vec::with_capacity(2 * cases.len());
+    for c in cases {
+        let truth = c.config.with_truth(spec)?;
+        let (model_name, truth_name) = match c.scenario {
+            "trapezoid" => ("trapezoid_model", "trapezoid_truth"),
+            _ => ("circle_model", "circle_truth"),
+        };
+        out.push(Case {
+            scenario: model_name,
+            config: SimConfig {
+                truth: None,
+                plant: None,
+                ..truth
+            },
+            ..c
+        });
+        out.push(Case {
+            scenario: truth_name,
+            config: truth,
+            ..c
+        });
+    }
+    Ok(out)
+}
+
+fn paper_arm_cases(opts: &Options) -> Result<Vec<Case>, SimError> {
     let base = SimConfig {
         rates: opts.rates,
         duration: opts.duration,

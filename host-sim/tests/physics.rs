@@ -119,7 +119,7 @@ fn incompatible_rates_are_refused() {
 
 #[test]
 fn montecarlo_small_batch_is_stable_and_reported() {
-    let batches = flexarm_sim::montecarlo::run(&[0.1], 8, 7, false);
+    let batches = flexarm_sim::montecarlo::run(&[0.1], 8, 7, None, false).unwrap();
     assert_eq!(batches[0].runs.len(), 8);
     assert!(batches[0].stable() == 1.0, "±10 % keeps every run stable");
     let report = flexarm_sim::montecarlo::report(&batches);
