@@ -14,6 +14,7 @@ pub mod plant;
 pub mod scenario;
 pub mod sim;
 pub mod spillover;
+pub mod spillover_study;
 pub mod study;
 pub mod truth;
 pub mod truth_plant;

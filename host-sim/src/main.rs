@@ -9,7 +9,7 @@ use flexarm_sim::outdir::{OutDir, write_atomic};
 use flexarm_sim::sim::Rates;
 use flexarm_sim::study::{self, Case, Options, Outcome};
 use flexarm_sim::truth_plant::TruthSpec;
-use flexarm_sim::{firmware_params, montecarlo, output, scenario};
+use flexarm_sim::{firmware_params, montecarlo, output, scenario, spillover_study};
 
 #[derive(Parser)]
 #[command(
@@ -58,6 +58,25 @@ enum Command {
         #[arg(long)]
         paper_fragment: bool,
         /// Replace an output or fragment that flexarm did not generate.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Spillover: the piezo loop's margin and damping on the truth plant against the number of
+    /// modes, the gain, the filter corner and the loop rate; the design rule; closed-loop runs.
+    Spillover {
+        /// Modes of the truth plant's link 2 (the largest N studied), 2 to 10.
+        #[arg(long, default_value_t = 10)]
+        modes: usize,
+        /// Length of the closed-loop runs [s].
+        #[arg(long, default_value_t = 5.0)]
+        duration: f64,
+        /// Output folder.
+        #[arg(long, default_value = "out/spillover")]
+        out: PathBuf,
+        /// Skip the figure.
+        #[arg(long)]
+        no_plots: bool,
+        /// Replace files of the same names that no flexarm command wrote.
         #[arg(long)]
         force: bool,
     },
@@ -322,6 +341,42 @@ fn main_result(cli: Cli) -> Result<()> {
                 "Wrote {out_name} from {fragment_name}: x_a = {} m, l_a = {} m, k_c = {} s; observer gains for 1 kHz and 100 Hz.",
                 p.patch.x_a, p.patch.l_a, p.k_c
             );
+            Ok(())
+        }
+        Command::Spillover {
+            modes,
+            duration,
+            out,
+            no_plots,
+            force,
+        } => {
+            spillover_study::check_modes(modes)?;
+            if !(duration.is_finite() && (0.05..=60.0).contains(&duration)) {
+                return Err(format!("--duration {duration} s must lie in 0.05 to 60 s"));
+            }
+            let spec = TruthSpec {
+                modes,
+                ..TruthSpec::default()
+            };
+            let report = spillover_study::run(&spec, duration).map_err(|e| e.to_string())?;
+            let md = spillover_study::markdown(&report);
+            let dir = OutDir::open(&out, "spillover", force)?;
+            for (name, text) in [
+                (
+                    "spillover.md",
+                    format!("# Spillover on the truth plant\n\n{md}"),
+                ),
+                ("spillover.csv", spillover_study::csv(&report)),
+            ] {
+                std::fs::write(dir.staging().join(name), text)
+                    .map_err(|e| format!("cannot write {name}: {e}"))?;
+            }
+            if !no_plots {
+                spillover_study::figure(&dir.staging().join("spillover.svg"), &report)
+                    .map_err(|e| format!("cannot draw the figure: {e}"))?;
+            }
+            let files = dir.commit()?;
+            println!("{md}\nWrote {}: {}.", out.display(), files.join(", "));
             Ok(())
         }
         Command::Montecarlo {

@@ -54,6 +54,23 @@ pub struct ModalLink {
 }
 
 impl ModalLink {
+    /// The truth plant's link 2 as the piezo loop sees it (joints held): every mode of `spec`
+    /// on the arm `arm` with the patch `patch` (`TruthSpec::link`).
+    pub fn from_truth(
+        spec: &crate::truth_plant::TruthSpec,
+        arm: &flexarm_core::params::ArmParams<f64>,
+        patch: &flexarm_core::control::piezo::PiezoPatch<f64>,
+    ) -> Result<Self, crate::truth::TruthError> {
+        let (body, c) = spec.link(arm, patch)?;
+        Ok(Self {
+            omega: body.omega,
+            zeta: body.zeta,
+            slope_diff: c.slope_diff,
+            k_a: c.k_a,
+            k_s: c.k_s,
+        })
+    }
+
     /// The first `n` modes only (the controller's truncation, for comparison).
     pub fn truncated(&self, n: usize) -> Self {
         Self {

@@ -192,3 +192,44 @@ fn margins_with_a_real_amplifier() {
     // enough gain away where the loop goes unstable: every slower amplifier costs margin.
     assert!(margins.windows(2).all(|w| w[1] < w[0]), "{margins:?}");
 }
+
+/// The study on the truth plant's ten modes (`flexarm-sim spillover`): the shipped gain is not
+/// robust, the design rule's gain is, and the closed loop shows it.
+#[test]
+fn the_study_finds_the_shipped_gain_unstable_and_the_rule_robust() {
+    use flexarm_sim::spillover_study::{MARGIN, run};
+    use flexarm_sim::truth_plant::TruthSpec;
+    let r = run(
+        &TruthSpec {
+            modes: 10,
+            ..TruthSpec::default()
+        },
+        5.0,
+    )
+    .unwrap();
+    // Question 1: the realistic board (amplifier, one-period delay) with ten modes.
+    let board = &r.margins[2].1;
+    assert!(board[9] < 1.0, "{board:?}");
+    // Fewer modes, more margin: two modes alone are stable.
+    assert!(board[1] > 1.0, "{board:?}");
+    // Question 3: the rule keeps its margin and damps both modes beyond their structural ζ.
+    let p = r.recommended.expect("a robust gain exists");
+    assert!(p.margin >= MARGIN, "{p:?}");
+    assert!(
+        p.zeta[0] > 1.3 * r.spec.zeta[0] && p.zeta[1] > 3.0 * r.spec.zeta[1],
+        "{p:?}"
+    );
+    // Question 4: with the full state, the shipped gain saturates the amplifier (the unstable
+    // loop's limit cycle) and leaves the link vibrating; the rule's gain settles it.
+    let (shipped, rule) = (
+        r.runs[0].summary.as_ref().unwrap(),
+        r.runs[2].summary.as_ref().unwrap(),
+    );
+    assert!(shipped.max_v_a >= 199.9, "{shipped:?}");
+    assert!(rule.max_v_a < 100.0, "{rule:?}");
+    assert!(
+        rule.tail_delta_abs[0] * 100.0 < shipped.tail_delta_abs[0],
+        "{rule:?}\n{shipped:?}"
+    );
+    println!("{}", flexarm_sim::spillover_study::markdown(&r));
+}

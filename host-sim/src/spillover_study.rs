@@ -1,0 +1,498 @@
+//! `flexarm-sim spillover`: the piezo loop against the truth plant's link (issue 14). Host
+//! side, `f64`. Four questions, each a table of the report:
+//!
+//! 1. **Margins of the shipped loop** (`k_c = 30 s`, 100 Hz corner): the factor on `k_c`
+//!    before the sampled loop goes unstable ([`crate::spillover::gain_margin`], joints held),
+//!    against the number of modes `N`, for the hardware board's 10 kHz loop (ideal; with the
+//!    amplifier's bandwidth; with the film read one period late as well, the realistic board)
+//!    and the QEMU board's 1 kHz.
+//! 2. **The gain and the corner**: on the realistic board with `N = 10`, the margin and the
+//!    closed-loop damping ratios of modes 1 and 2 against `k_c`, for several corners.
+//! 3. **The design rule** ([`recommend`]): the gain and corner that damp modes 1 and 2 best
+//!    while keeping a factor of at least [`MARGIN`] with every mode kept.
+//! 4. **The whole loop in simulation**: the paper's trapezoid on the truth plant with `N`
+//!    modes, Eq. 7 + piezo, full state and the firmware's observer with realistic sensors,
+//!    with the shipped and the recommended piezo gains (the observer sees the film too, so its
+//!    residuals carry the modes it does not know).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
+use flexarm_core::params::ArmParams;
+use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
+use plotters::prelude::*;
+
+use crate::sim::{Sensors, SimConfig, SimError, StateSource, Summary, simulate};
+use crate::spillover::{ModalLink, PiezoLoop, closed_loop, gain_margin};
+use crate::truth_plant::{MAX_MODES, TruthSpec};
+
+/// The residual vibration of the closed-loop runs is Eq. 38 over their last second [s] (half
+/// the run if shorter).
+pub const RESIDUAL_WINDOW: f64 = 1.0;
+
+/// The factor on `k_c` the recommended design keeps before instability (6 dB).
+pub const MARGIN: f64 = 2.0;
+
+/// The shipped piezo loop on the hardware board: `k_c = 30 s`, 100 Hz corner, 10 kHz.
+pub const SHIPPED: PiezoLoop = PiezoLoop {
+    k_c: 30.0,
+    cutoff_hz: 100.0,
+    period: 1e-4,
+    delay: false,
+    amplifier_hz: None,
+};
+
+/// The loops of question 1, with their labels.
+pub fn loops(spec: &TruthSpec) -> [(&'static str, PiezoLoop); 4] {
+    let amp = Some(spec.amplifier_hz).filter(|f| f.is_finite());
+    [
+        ("10 kHz, ideal amplifier", SHIPPED),
+        (
+            "10 kHz, amplifier",
+            PiezoLoop {
+                amplifier_hz: amp,
+                ..SHIPPED
+            },
+        ),
+        (
+            "10 kHz, amplifier, film one period late",
+            realistic(spec, SHIPPED),
+        ),
+        (
+            "1 kHz (QEMU board), ideal amplifier",
+            PiezoLoop {
+                period: 1e-3,
+                ..SHIPPED
+            },
+        ),
+    ]
+}
+
+/// `law` on the realistic hardware board: the amplifier of `spec` and the one-period delay.
+pub fn realistic(spec: &TruthSpec, law: PiezoLoop) -> PiezoLoop {
+    PiezoLoop {
+        delay: true,
+        amplifier_hz: Some(spec.amplifier_hz).filter(|f| f.is_finite()),
+        ..law
+    }
+}
+
+/// Damping ratios of the closed loop's modes nearest the link's first `count` modes: the
+/// discrete eigenvalues mapped to `s = ln λ / T`, `ζ = −Re s / |s|`.
+pub fn modal_damping(link: &ModalLink, law: &PiezoLoop, count: usize) -> Vec<f64> {
+    let s: Vec<_> = closed_loop(link, law)
+        .complex_eigenvalues()
+        .iter()
+        .filter(|l| l.im > 0.0)
+        .map(|l| l.ln() / law.period)
+        .collect();
+    link.omega
+        .iter()
+        .take(count)
+        .map(|w| {
+            s.iter()
+                .min_by(|a, b| (a.norm() - w).abs().total_cmp(&(b.norm() - w).abs()))
+                .map_or(f64::NAN, |s| -s.re / s.norm())
+        })
+        .collect()
+}
+
+/// One point of the gain scan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScanPoint {
+    /// Corner of the rate filter [Hz].
+    pub cutoff_hz: f64,
+    /// Gain [s].
+    pub k_c: f64,
+    /// Factor on `k_c` before instability (`∞` when stable to 1e6).
+    pub margin: f64,
+    /// Closed-loop damping ratios of modes 1 and 2.
+    pub zeta: [f64; 2],
+}
+
+/// Gains of the scan: 0.1 to 100 s, 10 a decade.
+pub fn gains() -> Vec<f64> {
+    (0..=30)
+        .map(|i| 10f64.powf(-1.0 + f64::from(i) / 10.0))
+        .collect()
+}
+
+/// Corners of the scan [Hz].
+pub const CORNERS: [f64; 4] = [30.0, 100.0, 300.0, 1000.0];
+
+/// The margin and the damping of modes 1–2 over `gains` × `corners` for the loop `base`.
+pub fn scan(link: &ModalLink, base: &PiezoLoop, gains: &[f64], corners: &[f64]) -> Vec<ScanPoint> {
+    let mut out = Vec::new();
+    for &cutoff_hz in corners {
+        for &k_c in gains {
+            let law = PiezoLoop {
+                k_c,
+                cutoff_hz,
+                ..*base
+            };
+            let z = modal_damping(link, &law, 2);
+            out.push(ScanPoint {
+                cutoff_hz,
+                k_c,
+                margin: gain_margin(link, &law, 1e6).unwrap_or(f64::INFINITY),
+                zeta: [z[0], z[1]],
+            });
+        }
+    }
+    out
+}
+
+/// The design rule: of the points with a margin of at least [`MARGIN`], the one whose weaker
+/// mode (1 or 2) is damped most.
+pub fn recommend(points: &[ScanPoint]) -> Option<ScanPoint> {
+    points
+        .iter()
+        .filter(|p| p.margin >= MARGIN)
+        .max_by(|a, b| {
+            a.zeta[0]
+                .min(a.zeta[1])
+                .total_cmp(&b.zeta[0].min(b.zeta[1]))
+        })
+        .copied()
+}
+
+/// A closed-loop run of question 4.
+#[derive(Clone, Debug)]
+pub struct Run {
+    /// What ran.
+    pub label: String,
+    /// Its indices (`None`: it faulted or diverged, with why).
+    pub summary: Result<Summary, String>,
+}
+
+/// The report.
+#[derive(Clone, Debug)]
+pub struct Report {
+    /// The truth plant studied (its largest `N`).
+    pub spec: TruthSpec,
+    /// Frequencies of its modes [Hz].
+    pub frequencies_hz: Vec<f64>,
+    /// Question 1: per loop, the margin for `N` = 1 … `spec.modes`.
+    pub margins: Vec<(&'static str, Vec<f64>)>,
+    /// Question 2.
+    pub scan: Vec<ScanPoint>,
+    /// Question 3.
+    pub recommended: Option<ScanPoint>,
+    /// The shipped gain on the realistic board with every mode: damping of modes 1 and 2.
+    pub shipped_zeta: [f64; 2],
+    /// Question 4.
+    pub runs: Vec<Run>,
+}
+
+/// Runs the study on the truth plant `spec` (its `modes` is the largest `N`), on the paper's
+/// arm and patch; `sim_duration` [s] is the length of the closed-loop runs.
+pub fn run(spec: &TruthSpec, sim_duration: f64) -> Result<Report, SimError> {
+    let arm = ArmParams::<f64>::default();
+    let patch = PiezoPatch::<f64>::paper();
+    let link_n = |n: usize| {
+        ModalLink::from_truth(&TruthSpec { modes: n, ..*spec }, &arm, &patch)
+            .map_err(|e| SimError::Truth(e.to_string()))
+    };
+    let full = link_n(spec.modes)?;
+    let margins = loops(spec)
+        .into_iter()
+        .map(|(label, law)| {
+            let row = (1..=spec.modes)
+                .map(|n| Ok(gain_margin(&full.truncated(n), &law, 1e6).unwrap_or(f64::INFINITY)))
+                .collect::<Result<Vec<_>, SimError>>()?;
+            Ok((label, row))
+        })
+        .collect::<Result<Vec<_>, SimError>>()?;
+    let board = realistic(spec, SHIPPED);
+    let points = scan(&full, &board, &gains(), &CORNERS);
+    let recommended = recommend(&points);
+    let z = modal_damping(&full, &board, 2);
+
+    let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
+    let mut runs = Vec::new();
+    let mut gains = vec![("shipped", SHIPPED.k_c, SHIPPED.cutoff_hz)];
+    if let Some(r) = recommended {
+        gains.push(("recommended", r.k_c, r.cutoff_hz));
+    }
+    for (name, k_c, cutoff_hz) in gains {
+        for (state, sensors, what) in [
+            (StateSource::Full, Sensors::default(), "full state"),
+            (
+                StateSource::Observer,
+                Sensors::realistic(),
+                "observer, realistic sensors",
+            ),
+        ] {
+            let cfg = SimConfig {
+                piezo: Some(PiezoGains {
+                    k_c: k_c as f32,
+                    cutoff_hz: cutoff_hz as f32,
+                }),
+                state,
+                sensors,
+                duration: sim_duration,
+                tail_window: (sim_duration / 2.0).min(RESIDUAL_WINDOW),
+                ..SimConfig::default()
+            }
+            .with_truth(*spec)?;
+            runs.push(Run {
+                label: format!("{name} (k_c = {k_c:.3} s, {cutoff_hz} Hz), {what}"),
+                summary: simulate(&cfg, &traj, false)
+                    .map(|(s, _)| s)
+                    .map_err(|e| e.to_string()),
+            });
+        }
+    }
+    Ok(Report {
+        spec: *spec,
+        frequencies_hz: full
+            .omega
+            .iter()
+            .map(|w| w / std::f64::consts::TAU)
+            .collect(),
+        margins,
+        scan: points,
+        recommended,
+        shipped_zeta: [z[0], z[1]],
+        runs,
+    })
+}
+
+fn factor(x: f64) -> String {
+    if x.is_infinite() {
+        "> 1e6".into()
+    } else if x < 1.0 {
+        format!("**{x:.2}**")
+    } else {
+        format!("{x:.2}")
+    }
+}
+
+/// The report as Markdown.
+pub fn markdown(r: &Report) -> String {
+    let mut s = String::new();
+    let f: Vec<String> = r.frequencies_hz.iter().map(|f| format!("{f:.1}")).collect();
+    let _ = writeln!(
+        s,
+        "Truth plant: link 2 as the {:.1} mm beam with the paper's patch, {} modes at {} Hz; amplifier {} Hz.\n",
+        r.spec.thickness * 1e3,
+        r.spec.modes,
+        f.join(", "),
+        r.spec.amplifier_hz
+    );
+    let _ = writeln!(
+        s,
+        "## 1. Factor on k_c = {} s (corner {} Hz) before the sampled piezo loop goes unstable (joints held; bold: unstable)\n",
+        SHIPPED.k_c, SHIPPED.cutoff_hz
+    );
+    let ns: Vec<String> = (1..=r.spec.modes).map(|n| format!("N = {n}")).collect();
+    let _ = writeln!(s, "| loop | {} |", ns.join(" | "));
+    let _ = writeln!(s, "|---|{}", "---|".repeat(r.spec.modes));
+    for (label, row) in &r.margins {
+        let cells: Vec<String> = row.iter().map(|x| factor(*x)).collect();
+        let _ = writeln!(s, "| {label} | {} |", cells.join(" | "));
+    }
+    let _ = writeln!(
+        s,
+        "\nThe shipped gain on the realistic board with {} modes damps mode 1 with ζ = {:.3} and mode 2 with ζ = {:.3} (structural: {}, {}).\n",
+        r.spec.modes, r.shipped_zeta[0], r.shipped_zeta[1], r.spec.zeta[0], r.spec.zeta[1]
+    );
+    let _ = writeln!(
+        s,
+        "## 2. The gain and the corner (realistic board, {} modes): margin / ζ1 / ζ2\n",
+        r.spec.modes
+    );
+    let _ = writeln!(
+        s,
+        "| k_c [s] | {} |",
+        CORNERS
+            .iter()
+            .map(|c| format!("{c} Hz"))
+            .collect::<Vec<_>>()
+            .join(" | ")
+    );
+    let _ = writeln!(s, "|---|{}", "---|".repeat(CORNERS.len()));
+    for k in gains().iter().step_by(5) {
+        let cells: Vec<String> = CORNERS
+            .iter()
+            .map(|c| {
+                r.scan
+                    .iter()
+                    .find(|p| p.cutoff_hz == *c && p.k_c == *k)
+                    .map_or("".into(), |p| {
+                        format!("{} / {:.3} / {:.3}", factor(p.margin), p.zeta[0], p.zeta[1])
+                    })
+            })
+            .collect();
+        let _ = writeln!(s, "| {k:.1} | {} |", cells.join(" | "));
+    }
+    let _ = writeln!(s, "\n## 3. The design rule\n");
+    match r.recommended {
+        Some(p) => {
+            let _ = writeln!(
+                s,
+                "Of the gains 0.1 to 100 s (10 a decade) and the corners above, the one that damps the weaker of modes 1 and 2 most while keeping a factor of at least {MARGIN} with every mode: **k_c = {:.3} s, corner {} Hz**: factor {:.2}, ζ1 = {:.3}, ζ2 = {:.3}.\n",
+                p.k_c, p.cutoff_hz, p.margin, p.zeta[0], p.zeta[1]
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "No gain of the scan keeps a factor of {MARGIN} with every mode.\n"
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "## 4. The paper's trapezoid on the truth plant ({} modes), Eq. 7 + piezo\n",
+        r.spec.modes
+    );
+    let _ = writeln!(
+        s,
+        "| piezo gain, controller | Eq. 37 δ [√kg·m] | Eq. 37 tip [m] | residual: Eq. 38 mean \\|δ\\| over the last {RESIDUAL_WINDOW} s [√kg·m] | Eq. 37 θ̃ [rad] | max \\|V_a\\| [V] |\n|---|---|---|---|---|---|"
+    );
+    for run in &r.runs {
+        match &run.summary {
+            Ok(x) => {
+                let _ = writeln!(
+                    s,
+                    "| {} | {:.3e} | {:.3e} | {:.2e}, {:.2e} | {:.3e} | {:.1} |",
+                    run.label,
+                    x.l2_delta,
+                    x.l2_tip,
+                    x.tail_delta_abs[0],
+                    x.tail_delta_abs[1],
+                    x.l2_error,
+                    x.max_v_a
+                );
+            }
+            Err(e) => {
+                let _ = writeln!(s, "| {} | failed: {e} | | | | |", run.label);
+            }
+        }
+    }
+    s
+}
+
+/// The scan as CSV: `cutoff_hz,k_c,margin,zeta1,zeta2`.
+pub fn csv(r: &Report) -> String {
+    let mut s = String::from("cutoff_hz,k_c_s,margin,zeta1,zeta2\n");
+    for p in &r.scan {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{}",
+            p.cutoff_hz, p.k_c, p.margin, p.zeta[0], p.zeta[1]
+        );
+    }
+    s
+}
+
+/// Two panels: the shipped loop's margin against `N` (question 1), and the margin and the
+/// damping against `k_c` on the realistic board (question 2, the 100 Hz corner and the
+/// recommended one).
+pub fn figure(path: &Path, r: &Report) -> Result<(), Box<dyn std::error::Error>> {
+    let root = SVGBackend::new(path, (1200, 500)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (left, right) = root.split_horizontally(600);
+    let colours = [BLUE, RED, GREEN, MAGENTA];
+    let clamp = |x: f64| x.clamp(1e-3, 1e4);
+
+    let mut c = ChartBuilder::on(&left)
+        .caption(
+            format!("Factor on k_c = {} s before instability", SHIPPED.k_c),
+            ("sans-serif", 18),
+        )
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(1usize..r.spec.modes.max(2), (1e-3f64..1e4f64).log_scale())?;
+    c.configure_mesh()
+        .x_desc("modes of link 2, N")
+        .y_desc("factor")
+        .draw()?;
+    c.draw_series(LineSeries::new(
+        [(1, 1.0), (r.spec.modes.max(2), 1.0)],
+        BLACK.stroke_width(1),
+    ))?;
+    for (k, (label, row)) in r.margins.iter().enumerate() {
+        let col = colours[k % colours.len()];
+        c.draw_series(LineSeries::new(
+            row.iter().enumerate().map(|(i, m)| (i + 1, clamp(*m))),
+            col.stroke_width(2),
+        ))?
+        .label(*label)
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 15, y)], col.stroke_width(2)));
+    }
+    c.configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()?;
+
+    let mut c = ChartBuilder::on(&right)
+        .caption(
+            format!("Realistic board, N = {}: margin and damping", r.spec.modes),
+            ("sans-serif", 18),
+        )
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((0.1f64..100f64).log_scale(), (1e-3f64..1e4f64).log_scale())?;
+    c.configure_mesh()
+        .x_desc("k_c [s]")
+        .y_desc("factor; damping ratio")
+        .draw()?;
+    c.draw_series(LineSeries::new(
+        [(0.1, MARGIN), (100.0, MARGIN)],
+        BLACK.stroke_width(1),
+    ))?;
+    let mut corners = vec![SHIPPED.cutoff_hz];
+    if let Some(p) = r.recommended
+        && p.cutoff_hz != SHIPPED.cutoff_hz
+    {
+        corners.push(p.cutoff_hz);
+    }
+    for (k, corner) in corners.iter().enumerate() {
+        let pts: Vec<&ScanPoint> = r.scan.iter().filter(|p| p.cutoff_hz == *corner).collect();
+        let col = colours[k % colours.len()];
+        for (what, f, style) in [
+            ("margin", 0usize, col.stroke_width(2)),
+            ("ζ1", 1, col.stroke_width(1)),
+            ("ζ2", 2, col.mix(0.5).stroke_width(1)),
+        ] {
+            let v = |p: &ScanPoint| match f {
+                0 => p.margin,
+                1 => p.zeta[0],
+                _ => p.zeta[1],
+            };
+            c.draw_series(LineSeries::new(
+                pts.iter().map(|p| (p.k_c, clamp(v(p)))),
+                style,
+            ))?
+            .label(format!("{what}, {corner} Hz"))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 15, y)], style));
+        }
+    }
+    if let Some(p) = r.recommended {
+        c.draw_series(std::iter::once(Circle::new(
+            (p.k_c, p.margin),
+            5,
+            BLACK.filled(),
+        )))?;
+    }
+    c.configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// The study's own check of its settings (the CLI's `--modes`).
+pub fn check_modes(n: usize) -> Result<(), String> {
+    if (2..=MAX_MODES).contains(&n) {
+        Ok(())
+    } else {
+        Err(format!("--modes {n} must be 2 to {MAX_MODES}"))
+    }
+}
