@@ -1,9 +1,10 @@
 //! # flexarm-sim
 //!
-//! The plant (the core's model in `f64`, integrated with RK4), the controllers (the core's `f32`
-//! code, exactly what the firmware runs, sampled with zero-order hold at their own rates), the
-//! paper's scenarios, scenario files, outputs (CSV, SVG figures, Markdown tables) and the Monte
-//! Carlo robustness study.
+//! The plants (the core's model in `f64`, integrated with RK4, and the truth plant: link 2 with
+//! up to ten modes behind real drives and transducers), the controllers (the core's `f32` code,
+//! exactly what the firmware runs, sampled with zero-order hold at their own rates), the paper's
+//! scenarios, scenario files, outputs (CSV, SVG figures, Markdown tables), the Monte Carlo
+//! robustness study and the spillover study.
 
 pub mod actuators;
 pub mod firmware_params;

@@ -489,6 +489,12 @@ fn command_line_mistakes_are_one_line_and_exit_1() {
         &["frobnicate"][..],
         &["montecarlo", "--runs", "-3"][..],
         &["montecarlo", "--runs", "100000000000"][..],
+        &["paper", "--modes", "4"][..],
+        &["paper", "--plant", "truth", "--modes", "11"][..],
+        &["paper", "--plant", "real"][..],
+        &["montecarlo", "--plant", "truth", "--modes", "0"][..],
+        &["spillover", "--modes", "1"][..],
+        &["spillover", "--duration", "nan"][..],
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_flexarm-sim"))
             .args(args)
@@ -536,4 +542,52 @@ fn every_command_line_value_is_refused_in_one_line_or_runs() {
         }
     }
     let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn the_truth_plant_from_the_command_line() {
+    // `spillover` writes its report, table and figure; `run --plant truth` on a file that
+    // already has a [plant] table is refused, on one without it runs on the truth plant.
+    let out = fresh_dir("spillover");
+    let (ok, stdout, stderr) = sim(&[
+        "spillover",
+        "--modes",
+        "4",
+        "--duration",
+        "0.5",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("## 3. The design rule"), "{stdout}");
+    assert_eq!(
+        names_in(&out),
+        [
+            ".flexarm-outputs",
+            "spillover.csv",
+            "spillover.md",
+            "spillover.svg"
+        ]
+    );
+    let truth = format!(
+        "{}/scenarios/trapezoid_truth.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let (ok, _, stderr) = sim(&["run", &truth, "--plant", "truth", "--no-plots"]);
+    assert!(!ok && stderr.contains("drop --plant"), "{stderr}");
+    let plain = format!("{}/scenarios/trapezoid.toml", env!("CARGO_MANIFEST_DIR"));
+    let out = fresh_dir("run_truth");
+    let (ok, stdout, stderr) = sim(&[
+        "run",
+        &plain,
+        "--plant",
+        "truth",
+        "--modes",
+        "3",
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("| trapezoid |"), "{stdout}");
 }
