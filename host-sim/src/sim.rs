@@ -442,15 +442,16 @@ impl SimConfig {
     /// This run on the truth plant `spec`: the arm given so far becomes the truth's rigid
     /// parts, and the controller gets the two-mode truncation of the truth's link
     /// ([`truth_plant::controller_model`]).
+    /// With [`truth_plant::LinkSource::Arm`] the controller and the plant keep their arms.
     pub fn with_truth(mut self, spec: TruthSpec) -> Result<Self, SimError> {
-        let rigid = self.plant.unwrap_or(self.arm);
-        let (arm, patch) = truth_plant::controller_model(&spec, &rigid, &self.patch)
-            .map_err(|e| SimError::Truth(e.to_string()))?;
         if spec.link == truth_plant::LinkSource::Beam {
+            let rigid = self.plant.unwrap_or(self.arm);
+            let (arm, patch) = truth_plant::controller_model(&spec, &rigid, &self.patch)
+                .map_err(|e| SimError::Truth(e.to_string()))?;
             self.plant = Some(rigid);
+            self.arm = arm;
+            self.patch = patch;
         }
-        self.arm = arm;
-        self.patch = patch;
         self.truth = Some(spec);
         Ok(self)
     }

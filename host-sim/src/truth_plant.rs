@@ -79,8 +79,8 @@ impl MotorSpec {
         coulomb_speed: 0.01,
     };
 
-    /// A geared servo drive of this arm's size (docs/results.md says where the numbers come
-    /// from): a 0.5 ms current loop, 0.02 N·m·s/rad viscous and 0.05 N·m Coulomb friction at
+    /// A servo drive of this arm's size (docs/results.md, "On the truth plant"): a 0.5 ms
+    /// current loop, 0.02 N·m·s/rad viscous and 0.05 N·m Coulomb friction at
     /// the joint (0.5 % of the 10 N·m limit), smoothed over 0.01 rad/s. The rotors are in the
     /// paper's hub inertias, so none is added.
     pub const DRIVE: Self = Self {
@@ -102,7 +102,7 @@ pub struct TruthSpec {
     pub link: LinkSource,
     /// Thickness of the beam `t_b` [m] ([`LinkSource::Beam`]).
     pub thickness: f64,
-    /// Tip payload mass [kg] and rotary inertia [kg·m²] ([`LinkSource::Beam`]).
+    /// Tip payload mass [kg] ([`LinkSource::Beam`]).
     pub tip_mass: f64,
     /// Tip payload rotary inertia [kg·m²].
     pub tip_inertia: f64,
@@ -134,12 +134,9 @@ impl TruthSpec {
         Self {
             modes: 2,
             link: LinkSource::Arm,
-            amplifier_hz: f64::INFINITY,
-            amplifier_current: f64::INFINITY,
-            film_corner_hz: 0.0,
-            motors: [MotorSpec::IDEAL; 2],
             ..Self::default()
         }
+        .ideal_actuators()
     }
 
     /// The same plant with ideal actuators and film (its mechanics only).
@@ -287,7 +284,7 @@ pub struct Coupling {
 
 impl Default for TruthSpec {
     /// Six modes of the design beam at the thickness of docs/results.md, the paper's patch,
-    /// geared drives ([`MotorSpec::DRIVE`]), a 5 kHz ±200 V amplifier with 0.1 A into the
+    /// servo drives ([`MotorSpec::DRIVE`]), a 5 kHz ±200 V amplifier with 0.1 A into the
     /// patch's 170 nF, a film amplifier with a 0.5 Hz high-pass.
     fn default() -> Self {
         Self {
@@ -312,7 +309,8 @@ impl Default for TruthSpec {
 pub const DEFAULT_THICKNESS: f64 = 2.5e-3;
 
 /// The two-mode model the controller runs for this truth plant (module docs): the core's
-/// arm and patch. For [`LinkSource::Arm`], `arm` and `patch` themselves.
+/// arm and patch, from the rigid parts `arm` and the patch's place `patch`. For
+/// [`LinkSource::Arm`], `arm` and `patch` themselves.
 pub fn controller_model(
     spec: &TruthSpec,
     arm: &ArmParams<f64>,
@@ -321,8 +319,10 @@ pub fn controller_model(
     if spec.link == LinkSource::Arm {
         return Ok((*arm, *patch));
     }
+    // The first two modes of the exact solution, at their nominal frequencies.
     let two = TruthSpec {
-        modes: spec.modes.max(2),
+        modes: 2,
+        omega_scale: [1.0; MAX_MODES],
         ..*spec
     };
     let (body, coupling) = two.link(arm, patch)?;
