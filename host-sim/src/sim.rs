@@ -222,6 +222,9 @@ pub struct SimConfig {
     pub state: StateSource,
     /// Sensor and amplifier models.
     pub sensors: Sensors,
+    /// The noise model the observer's gain is designed for (the firmware's: the default);
+    /// more modal process noise, a faster modal estimate.
+    pub observer_noise: NoiseModel,
     /// Run length [s].
     pub duration: f64,
     /// Window of Eq. 38 [s] at the end of the run.
@@ -242,6 +245,7 @@ impl Default for SimConfig {
             rates: Rates::default(),
             state: StateSource::Full,
             sensors: Sensors::default(),
+            observer_noise: NoiseModel::default(),
             duration: 5.0,
             tail_window: 3.0,
         }
@@ -394,7 +398,7 @@ fn build(
                 &c_f,
                 &Vector2::new(0.0, std::f64::consts::FRAC_PI_4),
                 motor_period,
-                &NoiseModel::default(),
+                &cfg.observer_noise,
             )
             .map_err(|_| SimError::ObserverDesign)?;
             // The controller always has a valid piezo law; with the loop off it is never stepped.

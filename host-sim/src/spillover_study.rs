@@ -13,12 +13,14 @@
 //! 4. **The whole loop in simulation**: the paper's trapezoid on the truth plant with `N`
 //!    modes, Eq. 7 + piezo, full state and the firmware's observer with realistic sensors,
 //!    with the shipped and the recommended piezo gains (the observer sees the film too, so its
-//!    residuals carry the modes it does not know).
+//!    residuals carry the modes it does not know), and the observer's gain scaled by
+//!    designing it for [`OBSERVER_NOISE`] times the firmware's modal process noise.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
+use flexarm_core::observer::NoiseModel;
 use flexarm_core::params::ArmParams;
 use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
 use plotters::prelude::*;
@@ -30,6 +32,9 @@ use crate::truth_plant::{MAX_MODES, TruthSpec};
 /// The residual vibration of the closed-loop runs is Eq. 38 over their last second [s] (half
 /// the run if shorter).
 pub const RESIDUAL_WINDOW: f64 = 1.0;
+
+/// Factors on the modal process noise the observer is designed for (1: the firmware's).
+pub const OBSERVER_NOISE: [f64; 3] = [0.1, 1.0, 10.0];
 
 /// The factor on `k_c` the recommended design keeps before instability (6 dB).
 pub const MARGIN: f64 = 2.0;
@@ -216,14 +221,23 @@ pub fn run(spec: &TruthSpec, sim_duration: f64) -> Result<Report, SimError> {
         gains.push(("recommended", r.k_c, r.cutoff_hz));
     }
     for (name, k_c, cutoff_hz) in gains {
-        for (state, sensors, what) in [
-            (StateSource::Full, Sensors::default(), "full state"),
-            (
+        let mut cases = vec![(
+            StateSource::Full,
+            Sensors::default(),
+            1.0,
+            "full state".into(),
+        )];
+        for f in OBSERVER_NOISE {
+            cases.push((
                 StateSource::Observer,
                 Sensors::realistic(),
-                "observer, realistic sensors",
-            ),
-        ] {
+                f,
+                format!("observer ({f}× modal noise), realistic sensors"),
+            ));
+        }
+        for (state, sensors, noise, what) in cases {
+            let mut observer_noise = NoiseModel::default();
+            observer_noise.accel_modal *= noise;
             let cfg = SimConfig {
                 piezo: Some(PiezoGains {
                     k_c: k_c as f32,
@@ -231,6 +245,7 @@ pub fn run(spec: &TruthSpec, sim_duration: f64) -> Result<Report, SimError> {
                 }),
                 state,
                 sensors,
+                observer_noise,
                 duration: sim_duration,
                 tail_window: (sim_duration / 2.0).min(RESIDUAL_WINDOW),
                 ..SimConfig::default()
