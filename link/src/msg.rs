@@ -1,0 +1,351 @@
+//! The messages (crate docs for units and frames). Host to firmware: [`Request`]; firmware to
+//! host: [`DeviceMsg`], a [`Reply`] to a request or a [`Telemetry`] frame. Every collection is a
+//! `heapless::Vec` with a stated capacity, so every message has a bounded size.
+
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+/// Waypoints per upload chunk.
+pub const WAYPOINTS_PER_CHUNK: usize = 8;
+/// Values per telemetry frame (one per selected [`Channels`] bit).
+pub const MAX_CHANNELS: usize = 16;
+/// Fault-recorder samples per reply page.
+pub const SAMPLES_PER_PAGE: usize = 4;
+/// Bytes of the firmware's build name in the handshake.
+pub const BUILD_NAME: usize = 32;
+
+/// A request from the host: the firmware answers with a [`Reply`] of the same `id`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Request {
+    /// Chosen by the host, echoed in the reply.
+    pub id: u16,
+    /// What to do.
+    pub command: Command,
+}
+
+/// What the host can ask.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Command {
+    /// Handshake: the host's protocol version; the reply is [`Reply::Hello`] or a refusal.
+    Hello {
+        /// The host's [`crate::VERSION`].
+        version: u16,
+    },
+    /// The firmware's [`Status`].
+    Status,
+    /// Enable the amplifiers once the checks pass.
+    Arm,
+    /// Disable the amplifiers (always accepted).
+    Disarm,
+    /// Start a move, validated whole first.
+    Move(Move),
+    /// One chunk of a waypoint list, before [`Move::Waypoints`].
+    Waypoints {
+        /// Index of the first waypoint of this chunk in the list.
+        first: u16,
+        /// The waypoints.
+        points: Vec<Waypoint, WAYPOINTS_PER_CHUNK>,
+    },
+    /// Controlled deceleration to hold.
+    Stop,
+    /// The safe state now: zero torque, zero piezo voltage, amplifiers disabled.
+    Estop,
+    /// Clear the latched fault if its cause is gone.
+    Clear,
+    /// Read a tunable parameter.
+    Get(Param),
+    /// Write a tunable parameter (validated; refused while moving).
+    Set(Param, f32),
+    /// Stream telemetry: every `decimation`-th motor period, the `channels` selected.
+    Subscribe {
+        /// Motor periods per frame, at least 1.
+        decimation: u16,
+        /// Which values each frame carries.
+        channels: Channels,
+    },
+    /// Stop the telemetry stream.
+    Unsubscribe,
+    /// A page of the fault recorder, from sample `from` (oldest first).
+    Faults {
+        /// Index of the first sample of the page.
+        from: u16,
+    },
+    /// Keeps the link watchdog fed without doing anything.
+    Ping,
+}
+
+/// A move, in the core's joint frames.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Move {
+    /// From the current joint angles to `target` [rad] in `move_time` [s], constant
+    /// acceleration during `ramp_time` [s] at each end.
+    Trapezoid {
+        /// Joint targets θ1, θ2 [rad].
+        target: [f32; 2],
+        /// Duration [s].
+        move_time: f32,
+        /// Ramp at each end [s].
+        ramp_time: f32,
+    },
+    /// The tip around a circle in the base frame.
+    Circle {
+        /// Centre [m].
+        centre: [f32; 2],
+        /// Radius [m].
+        radius: f32,
+        /// One revolution [s].
+        period: f32,
+        /// Ramp of the phase at each end [s].
+        ramp_time: f32,
+        /// Direction.
+        clockwise: bool,
+    },
+    /// Through the uploaded waypoints `0 … count − 1`.
+    Waypoints {
+        /// How many of the uploaded waypoints.
+        count: u16,
+    },
+}
+
+/// One joint waypoint.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Waypoint {
+    /// Joint angles θ1, θ2 [rad].
+    pub theta: [f32; 2],
+    /// Time to reach it from the previous one [s].
+    pub dt: f32,
+}
+
+/// The tunable parameters, each with its unit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Param {
+    /// `K_p` diagonal entry `i` (0–3) [N·m·s/rad for the joints].
+    Kp(u8),
+    /// `Λ` diagonal entry `i` (0–3) [1/s].
+    Lambda(u8),
+    /// `D_Δ` entry `i` (0–1) of the robust term [1/s].
+    DDelta(u8),
+    /// Piezo gain `k_c` [s].
+    Kc,
+    /// Corner of the piezo rate filter [Hz].
+    CutoffHz,
+    /// Torque limit of joint `i` (0–1) [N·m].
+    TauMax(u8),
+    /// Piezo amplifier limit [V].
+    VaMax,
+    /// Link watchdog timeout [s]; 0 disables it.
+    LinkTimeout,
+}
+
+/// Telemetry channels, one bit each (the values follow in this order).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Channels(pub u16);
+
+impl Channels {
+    /// Joint tracking errors θ − θ_d [rad] (2 values).
+    pub const ERROR: u16 = 1 << 0;
+    /// Estimated joint angles θ̂ [rad] (2).
+    pub const THETA: u16 = 1 << 1;
+    /// Estimated modal coordinates δ̂ [√kg·m] (2).
+    pub const DELTA: u16 = 1 << 2;
+    /// Motor torque commands τ [N·m] (2).
+    pub const TAU: u16 = 1 << 3;
+    /// Piezo command V_a [V] (1).
+    pub const V_A: u16 = 1 << 4;
+    /// Film voltage V_f [V] (1).
+    pub const V_F: u16 = 1 << 5;
+    /// Loads of the piezo and motor loops [fraction of the period] (2).
+    pub const LOAD: u16 = 1 << 6;
+    /// Every channel.
+    pub const ALL: u16 = (1 << 7) - 1;
+
+    /// Values a frame carries for these channels.
+    pub const fn values(self) -> usize {
+        let widths = [2, 2, 2, 2, 1, 1, 2];
+        let mut n = 0;
+        let mut i = 0;
+        while i < widths.len() {
+            if self.0 & (1 << i) != 0 {
+                n += widths[i];
+            }
+            i += 1;
+        }
+        n
+    }
+
+    /// Whether these channels name only known bits.
+    pub const fn is_valid(self) -> bool {
+        self.0 & !Self::ALL == 0
+    }
+}
+
+/// From the firmware.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum DeviceMsg {
+    /// The answer to the request `id`.
+    Reply {
+        /// The request's id.
+        id: u16,
+        /// The answer.
+        reply: Reply,
+    },
+    /// One telemetry frame.
+    Telemetry(Telemetry),
+}
+
+/// An answer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Reply {
+    /// The handshake.
+    Hello(Hello),
+    /// The status.
+    Status(Status),
+    /// Done.
+    Done,
+    /// A parameter's value (its unit in [`Param`]).
+    Value(f32),
+    /// A fault was cleared: its code.
+    Cleared(u8),
+    /// A page of the fault recorder.
+    Faults(FaultPage),
+    /// Refused, and why.
+    Refused(Refusal),
+}
+
+/// Why a request was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Refusal {
+    /// The host speaks another protocol version.
+    Version,
+    /// Not while a move runs.
+    Moving,
+    /// Not while a fault is latched.
+    Faulted,
+    /// Needs the amplifiers armed.
+    NotArmed,
+    /// The fault's cause is still there.
+    CauseActive,
+    /// A value is outside its allowed range (or not finite).
+    OutOfRange,
+    /// The move leaves the arm's reach or range.
+    Unreachable,
+    /// The move asks more speed, acceleration or torque than the limits.
+    TooFast,
+    /// The waypoint list is incomplete or too long.
+    Waypoints,
+    /// No such parameter (or index).
+    UnknownParam,
+    /// Nothing recorded at that index.
+    NoRecord,
+}
+
+/// The handshake's answer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Hello {
+    /// The firmware's [`crate::VERSION`].
+    pub version: u16,
+    /// Which board runs.
+    pub board: Board,
+    /// The build: crate version and features, as text.
+    pub build: heapless::String<BUILD_NAME>,
+    /// Hash of the running parameters (gains, limits, patch, observer), to tell two
+    /// configurations apart.
+    pub params_hash: u32,
+    /// Motor loop rate [Hz].
+    pub motor_hz: u32,
+    /// Piezo loop rate [Hz].
+    pub piezo_hz: u32,
+}
+
+/// Which board.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Board {
+    /// STM32F405 with real amplifiers.
+    Hardware,
+    /// QEMU with the simulated arm.
+    Qemu,
+}
+
+/// The drive's mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Mode {
+    /// Amplifiers disabled.
+    Disarmed,
+    /// Amplifiers enabled, holding, ready for a move.
+    Armed,
+    /// A move runs.
+    Moving,
+    /// Decelerating to hold after a stop.
+    Stopping,
+    /// In the safe state with a latched fault.
+    Fault,
+}
+
+/// One task's load.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Load {
+    /// Mean execution time over the last supervisor period [clock cycles].
+    pub mean_cycles: u32,
+    /// Worst execution time since boot [clock cycles].
+    pub worst_cycles: u32,
+    /// Deadline misses since boot.
+    pub misses: u32,
+}
+
+/// The status.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Status {
+    /// Mode.
+    pub mode: Mode,
+    /// The latched fault's code (`flexarm_core::Fault`'s stable number), if any.
+    pub fault: Option<u8>,
+    /// Motor periods since boot.
+    pub ticks: u64,
+    /// Piezo loop, motor loop.
+    pub loads: [Load; 2],
+    /// Telemetry frames dropped because the link could not keep up.
+    pub telemetry_dropped: u32,
+}
+
+/// One telemetry frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Increments by one per frame sent or dropped: a gap is a loss.
+    pub seq: u32,
+    /// Motor period of the sample.
+    pub tick: u64,
+    /// What the values are.
+    pub channels: Channels,
+    /// The selected channels' values, in [`Channels`] order.
+    pub values: Vec<f32, MAX_CHANNELS>,
+}
+
+/// One sample of the fault recorder (one per motor period before the fault).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RecordedSample {
+    /// Motor period.
+    pub tick: u64,
+    /// Measured joint angles [rad].
+    pub theta: [f32; 2],
+    /// Joint tracking errors [rad].
+    pub error: [f32; 2],
+    /// Estimated modal coordinates [√kg·m].
+    pub delta: [f32; 2],
+    /// Torque commands [N·m].
+    pub tau: [f32; 2],
+    /// Film voltage [V].
+    pub v_f: f32,
+}
+
+/// A page of the fault recorder.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FaultPage {
+    /// The fault recorded (its code).
+    pub fault: Option<u8>,
+    /// Samples held.
+    pub total: u16,
+    /// Index of the first sample of this page.
+    pub from: u16,
+    /// The samples.
+    pub samples: Vec<RecordedSample, SAMPLES_PER_PAGE>,
+}
