@@ -7,7 +7,8 @@
 //! | `piezo_loop` | TIM2 (10 kHz; 1 kHz under QEMU) | 3 | film voltage → `V_a = sat(−k_c V̇_f)` → piezo amplifier |
 //! | `motor_loop` | TIM3 (1 kHz; 100 Hz under QEMU) | 2 | encoders + film → observer → Eq. 7/16 → motor amplifiers |
 //! | `supervisor` | TIM4 (10 Hz) | 1 | liveness of both loops, watchdog, enable line, load report |
-//! | `idle` | — | 0 | telemetry: drains the queue to defmt |
+//! | `link_rx` | USART1 receive | 1 | moves the command link's bytes into a queue |
+//! | `idle` | — | 0 | telemetry to defmt; the command link: decodes, answers, streams (`link`) |
 //!
 //! The control math is `flexarm-core`'s [`Controller`]: checks, observer, laws and the safety
 //! latch. The tasks only move numbers between the board and the controller.
@@ -22,6 +23,7 @@ mod stack;
 // Generated from firmware/piezo.toml; each board uses one of its two observer gain tables.
 #[allow(dead_code)]
 mod generated;
+mod link;
 mod stats;
 mod telemetry;
 
@@ -41,7 +43,7 @@ use flexarm_core::controller::Controller;
 
 #[rtic::app(device = stm32f4::stm32f405, peripherals = true)]
 mod app {
-    use core::sync::atomic::{AtomicU32, Ordering::Relaxed};
+    use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
 
     use flexarm_core::control::motor::MotorLaw;
     use flexarm_core::observer::Measurement;
@@ -70,6 +72,10 @@ mod app {
     static MOTOR_HEARTBEAT: AtomicU32 = AtomicU32::new(0);
     /// Piezo steps done, for the supervisor's liveness check.
     static PIEZO_HEARTBEAT: AtomicU32 = AtomicU32::new(0);
+    /// The motor loop's last enable command, for the link's status.
+    static ENABLED: AtomicBool = AtomicBool::new(false);
+    /// Link bytes lost because the receive queue was full.
+    static RX_OVERFLOWS: AtomicU32 = AtomicU32::new(0);
 
     /// What the QEMU run checks at its end.
     #[derive(Default)]
@@ -97,6 +103,11 @@ mod app {
         tim4: TIM4,
         producer: Producer<'static, Record>,
         consumer: Consumer<'static, Record>,
+        rx_producer: Producer<'static, u8>,
+        rx_consumer: Consumer<'static, u8>,
+        rx: crate::link::Receiver,
+        serial: crate::link::Serial,
+        session: crate::link::Session,
         piezo_ticks: u32,
         now: Ticks,
         move_clock: MoveClock,
@@ -130,7 +141,10 @@ mod app {
         }};
     }
 
-    #[init(local = [queue: telemetry::Queue = telemetry::Queue::new()])]
+    #[init(local = [
+        queue: telemetry::Queue = telemetry::Queue::new(),
+        rx_queue: crate::link::RxQueue = crate::link::RxQueue::new(),
+    ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         // Before anything else (the crystal wait included): amplifiers disabled, commands safe.
         crate::emergency::force_safe_outputs();
@@ -238,6 +252,8 @@ mod app {
         );
 
         let (producer, consumer) = cx.local.queue.split();
+        let (rx_producer, rx_consumer) = cx.local.rx_queue.split();
+        let serial = crate::link::Serial::new(dp.USART1, &dp.RCC);
         defmt::info!(
             "flexarm firmware: piezo loop {=u32} Hz, motor loop {=u32} Hz, supervisor {=u32} Hz",
             PIEZO_HZ,
@@ -256,6 +272,11 @@ mod app {
                 tim4: dp.TIM4,
                 producer,
                 consumer,
+                rx_producer,
+                rx_consumer,
+                rx: crate::link::Receiver,
+                serial,
+                session: crate::link::Session::new(),
                 piezo_ticks: 0,
                 now: config::START_TICK,
                 // The boot move starts with the first motor period.
@@ -278,13 +299,37 @@ mod app {
         )
     }
 
-    /// Telemetry: prints queued records; at the end of a QEMU run, checks the bounds and exits.
-    #[idle(local = [consumer], shared = [check, ctrl, board])]
+    /// Telemetry and the command link: prints queued records and streams the subscribed ones;
+    /// answers the link's requests; at the end of a QEMU run, checks the bounds and exits.
+    #[idle(local = [consumer, rx_consumer, serial, session, last: (u64, f32) = (0, 0.0)], shared = [check, ctrl, board])]
     fn idle(mut cx: idle::Context) -> ! {
+        use crate::link;
         crate::stack::paint();
+        let move_end = Trapezoid::<f32>::paper().profile.duration();
         loop {
             while let Some(r) = cx.local.consumer.dequeue() {
                 telemetry::print(&r);
+                if let Record::Sample { tick, t, .. } = r {
+                    *cx.local.last = (tick, t);
+                }
+                if let Some(msg) = cx.local.session.telemetry(&r)
+                    && !link::send(cx.local.serial, &msg)
+                {
+                    cx.local.session.dropped();
+                }
+            }
+            while let Some(byte) = cx.local.rx_consumer.dequeue() {
+                let (tick, t) = *cx.local.last;
+                let now = link::Snapshot {
+                    fault: cx.shared.ctrl.lock(|c| c.fault()),
+                    enabled: ENABLED.load(Relaxed),
+                    moving: t < move_end,
+                    ticks: tick,
+                    dropped: RX_OVERFLOWS.load(Relaxed),
+                };
+                if let Some(reply) = cx.local.session.receive(byte, &now) {
+                    link::send(cx.local.serial, &reply);
+                }
             }
             if cx.shared.check.lock(|c| c.finished) {
                 #[cfg(feature = "qemu")]
@@ -371,6 +416,7 @@ mod app {
             b.set_enable(cmd.enable);
         });
         *cx.local.enabled = cmd.enable;
+        ENABLED.store(cmd.enable, Relaxed);
         MOTOR_HEARTBEAT.fetch_add(1, Relaxed);
 
         // Telemetry: periodic samples; the fault event the moment the latch is seen.
@@ -462,6 +508,16 @@ mod app {
             cx.shared.board.lock(safe_outputs);
         }
         let _ = t;
+    }
+
+    /// The command link's receive interrupt: bytes from USART1 into the queue, nothing else.
+    #[task(binds = USART1, priority = 1, local = [rx, rx_producer])]
+    fn link_rx(cx: link_rx::Context) {
+        while let Some(b) = cx.local.rx.read() {
+            if cx.local.rx_producer.enqueue(b).is_err() {
+                RX_OVERFLOWS.fetch_add(1, Relaxed);
+            }
+        }
     }
 
     /// Supervisor: liveness of both loops, watchdog, enable line, fault report,

@@ -13,6 +13,10 @@ pub struct TaskStats {
     total: AtomicU32,
     max: AtomicU32,
     misses: AtomicU32,
+    /// The mean of the last window.
+    last_mean: AtomicU32,
+    /// The longest run since reset.
+    worst: AtomicU32,
 }
 
 impl TaskStats {
@@ -23,6 +27,8 @@ impl TaskStats {
             total: AtomicU32::new(0),
             max: AtomicU32::new(0),
             misses: AtomicU32::new(0),
+            last_mean: AtomicU32::new(0),
+            worst: AtomicU32::new(0),
         }
     }
 
@@ -32,6 +38,7 @@ impl TaskStats {
         self.runs.fetch_add(1, Relaxed);
         self.total.fetch_add(counts, Relaxed);
         self.max.fetch_max(counts, Relaxed);
+        self.worst.fetch_max(counts, Relaxed);
         if missed {
             // Saturating: a count that never wraps back to a small number.
             let _ = self
@@ -45,7 +52,18 @@ impl TaskStats {
     pub fn take_window(&self) -> (u32, u32, u32) {
         let runs = self.runs.swap(0, Relaxed);
         let mean = self.total.swap(0, Relaxed).checked_div(runs).unwrap_or(0);
+        self.last_mean.store(mean, Relaxed);
         (runs, mean, self.max.swap(0, Relaxed))
+    }
+
+    /// The mean run of the last window [clock counts].
+    pub fn mean(&self) -> u32 {
+        self.last_mean.load(Relaxed)
+    }
+
+    /// The longest run since reset [clock counts].
+    pub fn worst(&self) -> u32 {
+        self.worst.load(Relaxed)
     }
 
     /// Deadline misses since reset.

@@ -237,6 +237,8 @@ pub enum Refusal {
     UnknownParam,
     /// Nothing recorded at that index.
     NoRecord,
+    /// This firmware does not implement the command yet.
+    Unsupported,
 }
 
 /// The handshake's answer.

@@ -204,6 +204,11 @@ impl HwBoard {
         set_bits!(gpiob.afrh(), 0xFF << 24, 0x99 << 24);
         set_bits!(gpiob.moder(), 0xFF << 24, (1 << 24) | (2 << 28) | (2 << 30));
         set_bits!(gpiob.pupdr(), 3 << 26, 1 << 26);
+        // PB6/PB7 AF7: USART1 TX/RX, the command link (`crate::link`); RX pulled up so an
+        // unplugged cable reads idle.
+        set_bits!(gpiob.afrl(), 0xFF << 24, 0x77 << 24);
+        set_bits!(gpiob.moder(), 0xF << 12, (2 << 12) | (2 << 14));
+        set_bits!(gpiob.pupdr(), 3 << 14, 1 << 14);
 
         // Encoders: SMCR SMS = 0b011 (count on both edges of both inputs), CCMR1 CC1S = CC2S =
         // 0b01 (TI1, TI2), input filter 0b1111 (f_DTS/32, 8 samples: 1.5 µs at the 168 MHz

@@ -1,0 +1,299 @@
+//! The command link's firmware side (issue 15, first slice): USART1 carries the frames of
+//! `flexarm-link`. The receive interrupt only moves bytes from the data register into a queue;
+//! the idle task decodes them, answers, and streams the telemetry the host subscribed to. Both
+//! run below the control loops, so nothing on the link can delay them.
+//!
+//! This slice answers `Hello`, `Status`, `Ping`, `Subscribe` and `Unsubscribe`; every other
+//! command is refused with [`Refusal::Unsupported`] until the drive's modes exist (docs/link.md).
+//!
+//! Hardware board: USART1 on PB6 (TX) and PB7 (RX) (the board configures the pins), 921 600
+//! baud, 8N1. QEMU board: the same USART, exposed by QEMU as a TCP socket
+//! (`scripts/qemu-link`).
+
+use flexarm_core::Fault;
+use flexarm_link::msg::{
+    Board, Channels, Command, Hello, Load, MAX_CHANNELS, Mode, Refusal, Reply, Status, Telemetry,
+};
+use flexarm_link::{DeviceMsg, Request, VERSION};
+use stm32f4::stm32f405::USART1;
+
+use crate::config::{MOTOR_HZ, PIEZO_HZ};
+use crate::telemetry::Record;
+
+/// Baud rate of the hardware board's link.
+pub const BAUD: u32 = 921_600;
+
+/// Bytes received and not yet decoded.
+pub const RX_CAPACITY: usize = 512;
+/// The queue between the receive interrupt and the idle task.
+pub type RxQueue = heapless::spsc::Queue<u8, RX_CAPACITY>;
+
+/// USART1's transmit side (the idle task's).
+pub struct Serial {
+    usart: USART1,
+}
+
+/// USART1's receive side (the receive interrupt's).
+pub struct Receiver;
+
+impl Receiver {
+    /// The byte in the data register, if one arrived (clears the interrupt); a byte with a
+    /// framing or parity error is dropped (the frame's CRC then refuses the frame).
+    pub fn read(&mut self) -> Option<u8> {
+        // SAFETY: the receiver only reads SR and DR; the transmitter ([`Serial`]) only reads
+        // SR and writes DR. Reading SR has no side effect; reading DR clears RXNE and ORE,
+        // which only the receiver does.
+        let usart = unsafe { &*USART1::ptr() };
+        let sr = usart.sr().read();
+        if sr.rxne().bit_is_set() || sr.ore().bit_is_set() {
+            let byte = usart.dr().read().dr().bits() as u8;
+            return (sr.fe().bit_is_clear() && sr.pe().bit_is_clear()).then_some(byte);
+        }
+        None
+    }
+}
+
+impl Serial {
+    /// Enables USART1 at [`BAUD`] (from the 84 MHz APB2 clock on hardware; QEMU ignores the
+    /// rate) with its receive interrupt.
+    pub fn new(usart: USART1, rcc: &stm32f4::stm32f405::RCC) -> Self {
+        rcc.apb2enr().modify(|_, w| w.usart1en().set_bit());
+        // 84 MHz / 921 600 = 91.1: 0.1 % fast, well inside a UART's tolerance.
+        let brr = ((84_000_000 + BAUD / 2) / BAUD) as u16;
+        // SAFETY: BRR takes any 16-bit divider; 91 is within it.
+        usart.brr().write(|w| unsafe { w.bits(brr) });
+        usart.cr1().write(|w| {
+            w.ue()
+                .set_bit()
+                .te()
+                .set_bit()
+                .re()
+                .set_bit()
+                .rxneie()
+                .set_bit()
+        });
+        Self { usart }
+    }
+
+    /// Sends `bytes`, waiting for the transmit register (idle task only).
+    pub fn write_all(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            while self.usart.sr().read().txe().bit_is_clear() {}
+            // SAFETY: DR takes any 9-bit value; a byte is within it.
+            self.usart
+                .dr()
+                .write(|w| unsafe { w.dr().bits(u16::from(*b)) });
+        }
+    }
+}
+
+/// What the idle task knows of the drive when it answers.
+#[derive(Clone, Copy, Debug)]
+pub struct Snapshot {
+    /// The latched fault.
+    pub fault: Option<Fault>,
+    /// The amplifiers are enabled.
+    pub enabled: bool,
+    /// The boot move is still running.
+    pub moving: bool,
+    /// Motor periods since boot (the last sample's).
+    pub ticks: u64,
+    /// Telemetry records the control loops could not queue.
+    pub dropped: u32,
+}
+
+/// One host session: the decoder and the subscription.
+pub struct Session {
+    decoder: flexarm_link::Decoder,
+    /// `(decimation, channels, countdown)` while subscribed.
+    subscription: Option<(u16, Channels, u16)>,
+    seq: u32,
+    dropped: u32,
+}
+
+impl Session {
+    /// No host yet.
+    pub const fn new() -> Self {
+        Self {
+            decoder: flexarm_link::Decoder::new(),
+            subscription: None,
+            seq: 0,
+            dropped: 0,
+        }
+    }
+
+    /// Takes one received byte; a complete request returns its reply. A frame that does not
+    /// decode is dropped (it has no id to answer).
+    pub fn receive(&mut self, byte: u8, now: &Snapshot) -> Option<DeviceMsg> {
+        match self.decoder.push::<Request>(byte)? {
+            Ok(req) => Some(DeviceMsg::Reply {
+                id: req.id,
+                reply: self.answer(req.command, now),
+            }),
+            Err(e) => {
+                defmt::warn!("link: frame dropped: {=str}", frame_error(e));
+                None
+            }
+        }
+    }
+
+    fn answer(&mut self, command: Command, now: &Snapshot) -> Reply {
+        match command {
+            Command::Hello { version } if version != VERSION => Reply::Refused(Refusal::Version),
+            Command::Hello { .. } => Reply::Hello(Hello {
+                version: VERSION,
+                board: if cfg!(feature = "qemu") {
+                    Board::Qemu
+                } else {
+                    Board::Hardware
+                },
+                build: heapless::String::try_from(concat!(
+                    "flexarm-firmware ",
+                    env!("CARGO_PKG_VERSION")
+                ))
+                .unwrap_or_default(),
+                params_hash: params_hash(),
+                motor_hz: MOTOR_HZ,
+                piezo_hz: PIEZO_HZ,
+            }),
+            Command::Status => Reply::Status(status(now, self.dropped)),
+            Command::Ping => Reply::Done,
+            Command::Subscribe {
+                decimation,
+                channels,
+            } => {
+                if decimation == 0 || !channels.is_valid() || channels.values() > MAX_CHANNELS {
+                    Reply::Refused(Refusal::OutOfRange)
+                } else {
+                    self.subscription = Some((decimation, channels, 0));
+                    Reply::Done
+                }
+            }
+            Command::Unsubscribe => {
+                self.subscription = None;
+                Reply::Done
+            }
+            _ => Reply::Refused(Refusal::Unsupported),
+        }
+    }
+
+    /// The telemetry frame of a motor-loop record, if subscribed and due. The records come at
+    /// the telemetry decimation of the motor loop (`config::TELEMETRY_EVERY`); the host's
+    /// decimation counts those.
+    pub fn telemetry(&mut self, r: &Record) -> Option<DeviceMsg> {
+        let Record::Sample {
+            tick,
+            error,
+            delta,
+            tau,
+            v_a,
+            ..
+        } = *r
+        else {
+            return None;
+        };
+        let (decimation, channels, countdown) = self.subscription.as_mut()?;
+        if *countdown > 0 {
+            *countdown -= 1;
+            return None;
+        }
+        *countdown = *decimation - 1;
+        let mut values = heapless::Vec::<f32, MAX_CHANNELS>::new();
+        let c = channels.0;
+        for (bit, v) in [
+            (Channels::ERROR, &error[..]),
+            (Channels::DELTA, &delta[..]),
+            (Channels::TAU, &tau[..]),
+            (Channels::V_A, &[v_a][..]),
+        ] {
+            if c & bit != 0 {
+                let _ = values.extend_from_slice(v);
+            }
+        }
+        let seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        Some(DeviceMsg::Telemetry(Telemetry {
+            seq,
+            tick,
+            channels: Channels(
+                c & (Channels::ERROR | Channels::DELTA | Channels::TAU | Channels::V_A),
+            ),
+            values,
+        }))
+    }
+
+    /// A telemetry frame could not be sent (counted; its sequence number is spent).
+    pub fn dropped(&mut self) {
+        self.dropped = self.dropped.saturating_add(1);
+    }
+}
+
+fn status(now: &Snapshot, link_dropped: u32) -> Status {
+    let load = |s: &crate::stats::TaskStats| Load {
+        mean_cycles: s.mean(),
+        worst_cycles: s.worst(),
+        misses: s.misses(),
+    };
+    Status {
+        mode: match (now.fault, now.enabled, now.moving) {
+            (Some(_), _, _) => Mode::Fault,
+            (None, false, _) => Mode::Disarmed,
+            (None, true, true) => Mode::Moving,
+            (None, true, false) => Mode::Armed,
+        },
+        fault: now.fault.map(|f| f as u8),
+        ticks: now.ticks,
+        loads: [load(&crate::stats::PIEZO), load(&crate::stats::MOTOR)],
+        telemetry_dropped: now.dropped.saturating_add(link_dropped),
+    }
+}
+
+/// FNV-1a over the bits of the running parameters: the patch, the piezo gains, the limits and
+/// the observer gain table. Two firmwares with the same hash run the same controller numbers.
+pub fn params_hash() -> u32 {
+    let p = crate::config::patch();
+    let g = crate::config::piezo_gains();
+    let l = crate::config::limits();
+    let mut h: u32 = 0x811c_9dc5;
+    let mut add = |x: f32| {
+        for b in x.to_bits().to_le_bytes() {
+            h = (h ^ u32::from(b)).wrapping_mul(0x0100_0193);
+        }
+    };
+    for x in [p.x_a, p.l_a, p.slope_diff.x, p.slope_diff.y, p.k_a, p.k_s] {
+        add(x);
+    }
+    for x in [g.k_c, g.cutoff_hz, l.tau_max.x, l.tau_max.y, l.v_a_max] {
+        add(x);
+    }
+    for row in crate::config::OBSERVER_GAIN {
+        for x in row {
+            add(*x);
+        }
+    }
+    h
+}
+
+fn frame_error(e: flexarm_link::FrameError) -> &'static str {
+    use flexarm_link::FrameError as E;
+    match e {
+        E::TooLarge => "too large",
+        E::Oversized => "oversized",
+        E::Cobs => "bad COBS",
+        E::Truncated => "truncated",
+        E::Crc => "bad CRC",
+        E::Malformed => "malformed",
+    }
+}
+
+/// Encodes and sends one message.
+pub fn send(serial: &mut Serial, msg: &DeviceMsg) -> bool {
+    let mut buf = [0u8; flexarm_link::MAX_FRAME];
+    match flexarm_link::encode(msg, &mut buf) {
+        Ok(f) => {
+            serial.write_all(f);
+            true
+        }
+        Err(_) => false,
+    }
+}
