@@ -98,7 +98,7 @@ pub struct Snapshot {
     pub moving: bool,
     /// Motor periods since boot (the last sample's).
     pub ticks: u64,
-    /// Telemetry records the control loops could not queue.
+    /// Telemetry records the motor loop could not queue.
     pub dropped: u32,
 }
 

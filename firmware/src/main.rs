@@ -76,6 +76,8 @@ mod app {
     static ENABLED: AtomicBool = AtomicBool::new(false);
     /// Link bytes lost because the receive queue was full.
     static RX_OVERFLOWS: AtomicU32 = AtomicU32::new(0);
+    /// Telemetry records the motor loop could not queue.
+    static TELEMETRY_DROPS: AtomicU32 = AtomicU32::new(0);
 
     /// What the QEMU run checks at its end.
     #[derive(Default)]
@@ -301,7 +303,7 @@ mod app {
 
     /// Telemetry and the command link: prints queued records and streams the subscribed ones;
     /// answers the link's requests; at the end of a QEMU run, checks the bounds and exits.
-    #[idle(local = [consumer, rx_consumer, serial, session, last: (u64, f32) = (0, 0.0)], shared = [check, ctrl, board])]
+    #[idle(local = [consumer, rx_consumer, serial, session, last: (u64, f32) = (0, 0.0), overflows_seen: u32 = 0], shared = [check, ctrl, board])]
     fn idle(mut cx: idle::Context) -> ! {
         use crate::link;
         crate::stack::paint();
@@ -318,6 +320,11 @@ mod app {
                     cx.local.session.dropped();
                 }
             }
+            let overflows = RX_OVERFLOWS.load(Relaxed);
+            if overflows != *cx.local.overflows_seen {
+                *cx.local.overflows_seen = overflows;
+                defmt::warn!("link: {=u32} received bytes lost (queue full)", overflows);
+            }
             while let Some(byte) = cx.local.rx_consumer.dequeue() {
                 let (tick, t) = *cx.local.last;
                 let now = link::Snapshot {
@@ -325,7 +332,7 @@ mod app {
                     enabled: ENABLED.load(Relaxed),
                     moving: t < move_end,
                     ticks: tick,
-                    dropped: RX_OVERFLOWS.load(Relaxed),
+                    dropped: TELEMETRY_DROPS.load(Relaxed),
                 };
                 if let Some(reply) = cx.local.session.receive(byte, &now) {
                     link::send(cx.local.serial, &reply);
@@ -424,6 +431,7 @@ mod app {
         let mut push = |r: Record| {
             if producer.enqueue(r).is_err() {
                 *cx.local.telemetry_drops = cx.local.telemetry_drops.saturating_add(1);
+                TELEMETRY_DROPS.store(*cx.local.telemetry_drops, Relaxed);
             }
         };
         if let (Some(fault), false) = (fault, *cx.local.fault_sent) {
