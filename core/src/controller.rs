@@ -9,7 +9,9 @@
 //!   voltage checked.
 //!
 //! Both loops read the [`SafetyLatch`]: after any fault they command the safe state (zero
-//! torque, zero voltage, amplifiers disabled) until [`Controller::reset`].
+//! torque, zero voltage, amplifiers disabled) until [`Controller::reset`]. Disarmed
+//! ([`Controller::set_armed`], the drive's `crate::drive`), the piezo loop commands 0 V and the
+//! motor loop runs [`Controller::idle_step`]: the checks and the observer, no law.
 
 use crate::control::motor::{MotorController, MotorLaw, MotorOutput};
 use crate::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
@@ -64,6 +66,8 @@ pub struct Controller<T> {
     /// tripped, so the latch costs the hot path no test of its own. Every trip goes through
     /// [`Self::trip`], which closes it; [`Self::reset`] opens it.
     film_gate: T,
+    /// The amplifiers may be driven (the drive's `armed`); a new controller is armed.
+    armed: bool,
     staleness: Staleness,
     /// Encoder angles of the previous sample [rad].
     previous: Option<Vector2<T>>,
@@ -102,6 +106,7 @@ impl<T: Real> Controller<T> {
             motor_period,
             latch: SafetyLatch::default(),
             film_gate: sensors.v_f_max,
+            armed: true,
             staleness: Staleness::new(stale_limit),
             previous: None,
             v_a: T::zero(),
@@ -194,11 +199,41 @@ impl<T: Real> Controller<T> {
         r.map_err(|f| self.trip(f)).ok()
     }
 
+    /// Arms (the laws drive the amplifiers) or disarms (the safe command; the checks and the
+    /// observer go on, predicting with zero input; the piezo law restarts when re-armed).
+    pub fn set_armed(&mut self, armed: bool) {
+        if armed && !self.armed {
+            self.piezo.reset();
+        }
+        self.armed = armed;
+        self.v_a = T::zero();
+        self.open_gate();
+    }
+
+    /// The measurements' physical ranges.
+    pub fn sensor_limits(&self) -> &SensorLimits<T> {
+        &self.sensors
+    }
+
+    /// Whether the laws drive the amplifiers.
+    pub fn armed(&self) -> bool {
+        self.armed
+    }
+
+    /// The film gate: the film's range while armed with the latch clear, closed otherwise.
+    fn open_gate(&mut self) {
+        self.film_gate = if self.armed && self.latch.fault().is_none() {
+            self.sensors.v_f_max
+        } else {
+            -T::one()
+        };
+    }
+
     /// Clears the latch and restarts the filters and the observer at the encoder angles
     /// `theta` [rad]. Angles that are not finite trip [`Fault::NonFinite`] at once.
     pub fn reset(&mut self, theta: Vector2<T>) {
         self.latch.reset();
-        self.film_gate = self.sensors.v_f_max;
+        self.open_gate();
         self.piezo.reset();
         self.v_a = T::zero();
         self.reset_observer(theta);
@@ -223,6 +258,35 @@ impl<T: Real> Controller<T> {
         self.report(law)
     }
 
+    /// One motor step while disarmed (the drive calls it instead of [`Self::motor_step`]): the
+    /// checks and the observer run, the observer predicting with zero input since the
+    /// amplifiers are off; the command is the safe one.
+    pub fn idle_step(&mut self, y: Option<&Measurement<T>>) -> MotorReport<T> {
+        self.run_idle(y);
+        self.report(None)
+    }
+
+    fn run_idle(&mut self, y: Option<&Measurement<T>>) -> Option<()> {
+        if self.latch.fault().is_some() {
+            return None;
+        }
+        let stale = self.staleness.tick(y.is_some());
+        self.check(stale)?;
+        if let Some(y) = y {
+            let checked = self
+                .sensors
+                .check(y, self.previous.as_ref(), self.motor_period);
+            self.check(checked)?;
+            self.observer.correct_finite(y);
+            self.previous = Some(y.theta);
+        }
+        let terms = self.motor.model.terms(&self.observer.state().0);
+        let predicted = self
+            .observer
+            .predict_with(&self.motor.model, &terms, &Vector4::zeros());
+        self.check(predicted)
+    }
+
     /// One motor step with the full state `(q, q̇)` measured (the paper's assumption), for
     /// comparing with the observer in simulation. The checks and the latch still apply.
     pub fn motor_step_full_state(
@@ -237,7 +301,8 @@ impl<T: Real> Controller<T> {
     }
 
     /// The step's command: the law's torques when it ran; the safe state otherwise (every path
-    /// of [`Self::run_motor`] that returns `None` has latched a fault).
+    /// of [`Self::run_motor`] that returns `None` has latched a fault; [`Self::idle_step`]
+    /// always commands it).
     fn report(&self, law: Option<MotorOutput<T>>) -> MotorReport<T> {
         let command = match law {
             Some(l) => Command {
@@ -299,11 +364,11 @@ impl<T: Real> Controller<T> {
     /// One piezo step with the film voltage `v_f` [V]; returns the amplifier command [V]
     /// (0 V in the safe state).
     pub fn piezo_step(&mut self, v_f: T) -> T {
-        // One comparison rejects a latched controller (the gate is closed) and NaN, ±∞ and
-        // out-of-range samples; the cause is sorted out on the (rare) fault path.
+        // One comparison rejects a latched or disarmed controller (the gate is closed) and NaN,
+        // ±∞ and out-of-range samples; the cause is sorted out on the (rare) fault path.
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
         if !(v_f.abs() < self.film_gate) {
-            if self.latch.fault().is_none() {
+            if self.armed && self.latch.fault().is_none() {
                 self.trip(if v_f.finite() {
                     Fault::OutOfRange
                 } else {

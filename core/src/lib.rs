@@ -24,6 +24,7 @@
 
 pub mod control;
 pub mod controller;
+pub mod drive;
 pub mod fastmath;
 pub mod fault;
 pub mod indices;

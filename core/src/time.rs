@@ -44,6 +44,11 @@ impl MoveClock {
         self.start
     }
 
+    /// The clock's rate [Hz].
+    pub const fn rate_hz(&self) -> u32 {
+        self.rate_hz
+    }
+
     /// Periods since the start, `now − start` (wrapping, so a move that runs across the
     /// counter's wrap counts on), saturated to `u32::MAX`: 49.7 days at 1 kHz, past the end of
     /// any move, where the reference no longer depends on time.

@@ -1,0 +1,275 @@
+//! The drive's modes in closed loop with the core's simulated arm, as the firmware runs them
+//! (`f32`, motor loop 1 kHz, piezo loop 10 kHz): disarmed outputs are safe while the observer
+//! follows; arm holds; a move is validated whole or refused with its reason; a stop decelerates
+//! within the limits and holds; a fault is cleared only when its cause is gone.
+
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
+
+use flexarm_core::Fault;
+use flexarm_core::Vector2;
+use flexarm_core::Vector4;
+use flexarm_core::control::motor::MotorLaw;
+use flexarm_core::controller::Controller;
+use flexarm_core::drive::{Drive, Mode, MoveLimits, MoveRequest, Refused};
+use flexarm_core::observer::Measurement;
+use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
+use flexarm_core::simarm::{SensorModel, SimArm};
+use flexarm_core::time::Ticks;
+use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
+
+struct Bench {
+    ctrl: Controller<f32>,
+    drive: Drive<f32>,
+    arm: SimArm<f32>,
+    now: Ticks,
+}
+
+impl Bench {
+    fn new(theta: Vector2<f32>) -> Self {
+        let mut ctrl = Controller::paper(
+            MotorLaw::Tracking,
+            JointTrajectory::Trapezoid(Trapezoid::paper()),
+            1e-4,
+            1e-3,
+            gain(&GAIN_1KHZ),
+        );
+        let arm = SimArm::new(
+            ctrl.motor.model,
+            ctrl.patch,
+            Vector4::new(theta.x, theta.y, 0.0, 0.0),
+            SensorModel::default(),
+        );
+        ctrl.reset_observer(arm.encoders());
+        let drive = Drive::new(&mut ctrl, 1000, Ticks(0), MoveLimits::default());
+        Self {
+            ctrl,
+            drive,
+            arm,
+            now: Ticks(0),
+        }
+    }
+
+    fn measurement(&self) -> Measurement<f32> {
+        Measurement {
+            theta: self.arm.encoders(),
+            v_f: self.arm.film_voltage(),
+        }
+    }
+
+    /// One motor period: ten piezo periods of the plant, then the motor step. Returns the
+    /// largest |τ| and |V_a| commanded.
+    fn period(&mut self) -> (f32, f32) {
+        let mut v_max: f32 = 0.0;
+        for _ in 0..10 {
+            let v = self.ctrl.piezo_step(self.arm.film_voltage());
+            v_max = v_max.max(v.abs());
+            self.arm.set_piezo(v);
+            assert!(self.arm.step(1e-4));
+        }
+        let y = self.measurement();
+        let report = self.drive.step(&mut self.ctrl, self.now, Some(&y));
+        self.arm.set_torques(report.command.tau);
+        self.arm.set_enable(report.command.enable);
+        self.now = self.now.next();
+        (report.command.tau.abs().max(), v_max)
+    }
+
+    fn run(&mut self, seconds: f32) -> (f32, f32) {
+        let mut peak = (0.0f32, 0.0f32);
+        for _ in 0..(seconds * 1000.0) as usize {
+            let (t, v) = self.period();
+            peak = (peak.0.max(t), peak.1.max(v));
+        }
+        peak
+    }
+
+    fn theta(&self) -> Vector2<f32> {
+        Vector2::new(self.arm.x.q.x, self.arm.x.q.y)
+    }
+}
+
+fn trapezoid(target: [f32; 2], move_time: f32, ramp_time: f32) -> MoveRequest<f32> {
+    MoveRequest::Trapezoid {
+        target: Vector2::new(target[0], target[1]),
+        move_time,
+        ramp_time,
+    }
+}
+
+#[test]
+fn disarmed_the_outputs_are_safe_and_the_observer_follows() {
+    let mut b = Bench::new(Vector2::new(0.3, -0.2));
+    // A free swing of the arm: an initial speed, no torque.
+    b.arm.x.qd = Vector4::new(0.5, -0.4, 0.0, 0.0);
+    let (tau, v) = b.run(1.0);
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Disarmed);
+    assert_eq!((tau, v), (0.0, 0.0), "safe command while disarmed");
+    assert!(!b.arm.enabled());
+    let err = (b.ctrl.estimate().0.xy() - b.theta()).abs().max();
+    assert!(err < 2e-3, "the observer follows the free arm: {err}");
+    // A move is refused until armed.
+    let r = b
+        .drive
+        .start(&mut b.ctrl, b.now, &trapezoid([0.5, 0.0], 2.0, 0.5));
+    assert_eq!(r, Err(Refused::NotArmed));
+}
+
+#[test]
+fn armed_it_holds_a_move_runs_and_ends_holding_at_its_target() {
+    let mut b = Bench::new(Vector2::new(0.1, 0.2));
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.run(0.5);
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Armed);
+    assert!((b.theta() - Vector2::new(0.1, 0.2)).abs().max() < 2e-3);
+    let d = b
+        .drive
+        .start(&mut b.ctrl, b.now, &trapezoid([1.0, -0.6], 2.0, 0.5))
+        .unwrap();
+    assert_eq!(d, 2.0);
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Moving);
+    // While it runs another move is refused.
+    let r = b
+        .drive
+        .start(&mut b.ctrl, b.now, &trapezoid([0.0, 0.0], 2.0, 0.5));
+    assert_eq!(r, Err(Refused::Moving));
+    b.run(1.995);
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Moving);
+    b.run(0.01);
+    assert_eq!(
+        b.drive.mode(&b.ctrl),
+        Mode::Armed,
+        "holding from the move's end"
+    );
+    b.run(1.0);
+    let err = (b.theta() - Vector2::new(1.0, -0.6)).abs().max();
+    assert!(err < 2e-3, "holds the target: {err}");
+    assert!(b.ctrl.fault().is_none());
+}
+
+#[test]
+fn a_move_is_validated_whole_and_refused_with_its_reason() {
+    let mut b = Bench::new(Vector2::zeros());
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    let held = b.ctrl.trajectory;
+    for (req, why) in [
+        (trapezoid([f32::NAN, 0.0], 2.0, 0.5), Refused::OutOfRange),
+        (trapezoid([0.5, 0.0], 2.0, 1.5), Refused::OutOfRange),
+        (trapezoid([0.5, 0.0], -1.0, 0.5), Refused::OutOfRange),
+        (trapezoid([3.5, 0.0], 4.0, 1.0), Refused::Unreachable),
+        (trapezoid([0.0, -2.7], 4.0, 1.0), Refused::Unreachable),
+        // 2 rad in 0.5 s: 5.3 rad/s.
+        (trapezoid([2.0, 0.0], 0.5, 0.125), Refused::TooFast),
+        // 1 rad, 0.05 s ramps: 1.05 rad/s but 21 rad/s².
+        (trapezoid([1.0, 0.0], 1.0, 0.05), Refused::TooFast),
+    ] {
+        assert_eq!(b.drive.start(&mut b.ctrl, b.now, &req), Err(why), "{req:?}");
+        assert_eq!(b.ctrl.trajectory, held, "nothing applied");
+        assert_eq!(b.drive.mode(&b.ctrl), Mode::Armed);
+    }
+    // The torque estimate: a move within speed and acceleration limits but asking more than
+    // half of a lowered torque limit.
+    b.ctrl.motor.limits.tau_max = Vector2::new(1.0, 1.0);
+    let r = b
+        .drive
+        .start(&mut b.ctrl, b.now, &trapezoid([1.5, 0.0], 1.0, 0.2));
+    assert_eq!(r, Err(Refused::TooFast));
+}
+
+#[test]
+fn a_stop_decelerates_within_the_limits_and_holds() {
+    let mut b = Bench::new(Vector2::zeros());
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.drive
+        .start(&mut b.ctrl, b.now, &trapezoid([2.0, 1.0], 2.0, 0.5))
+        .unwrap();
+    b.run(1.0); // mid-move, at 1.33 rad/s on joint 1
+    let speed = b.arm.x.qd.x;
+    assert!(speed > 1.0, "{speed}");
+    b.drive.stop(&mut b.ctrl, b.now).unwrap();
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Stopping);
+    let at_stop = b.theta();
+    // Reference: v²/(2a) = 1.33²/20 = 0.09 rad to rest at 10 rad/s².
+    b.run(0.5);
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Armed, "the stop ended");
+    b.run(0.5);
+    let travelled = (b.theta() - at_stop).abs().max();
+    assert!(travelled > 0.06 && travelled < 0.12, "{travelled}");
+    assert!(
+        b.arm.x.qd.xy().abs().max() < 1e-2,
+        "at rest: {:?}",
+        b.arm.x.qd
+    );
+    assert!(
+        b.arm.enabled(),
+        "category 1: the power stays on until the host disarms"
+    );
+    assert!(b.ctrl.fault().is_none());
+}
+
+#[test]
+fn a_fault_is_cleared_only_when_its_cause_is_gone() {
+    let mut b = Bench::new(Vector2::zeros());
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.run(0.1);
+    // An encoder reading out of range.
+    let bad = Measurement {
+        theta: Vector2::new(5.0, 0.0),
+        v_f: 0.0,
+    };
+    b.ctrl.motor_step(b.drive.time(b.now), Some(&bad));
+    assert_eq!(b.ctrl.fault(), Some(Fault::OutOfRange));
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Fault);
+    assert_eq!(b.drive.arm(&mut b.ctrl, b.now), Err(Refused::Faulted));
+    assert_eq!(
+        b.drive.clear(&mut b.ctrl, Some(&bad), false),
+        Err(Refused::CauseActive)
+    );
+    let good = b.measurement();
+    assert_eq!(
+        b.drive.clear(&mut b.ctrl, Some(&good), false),
+        Ok(Fault::OutOfRange)
+    );
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Disarmed);
+    assert_eq!(
+        b.drive.clear(&mut b.ctrl, Some(&good), false),
+        Err(Refused::CauseActive)
+    );
+    // An amplifier fault stays while its line is asserted; a clock failure never clears.
+    b.ctrl.trip(Fault::Amplifier);
+    assert_eq!(
+        b.drive.clear(&mut b.ctrl, Some(&good), true),
+        Err(Refused::CauseActive)
+    );
+    assert_eq!(
+        b.drive.clear(&mut b.ctrl, Some(&good), false),
+        Ok(Fault::Amplifier)
+    );
+    b.ctrl.trip(Fault::Clock);
+    assert_eq!(
+        b.drive.clear(&mut b.ctrl, Some(&good), false),
+        Err(Refused::CauseActive)
+    );
+    // After a clear the drive re-arms and holds.
+    let mut b = Bench::new(Vector2::zeros());
+    b.ctrl.trip(Fault::Overrun);
+    let good = b.measurement();
+    b.drive.clear(&mut b.ctrl, Some(&good), false).unwrap();
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.run(0.5);
+    assert!(b.theta().abs().max() < 2e-3 && b.ctrl.fault().is_none());
+}
+
+#[test]
+fn disarm_is_always_accepted_and_cuts_the_outputs_in_the_same_period() {
+    let mut b = Bench::new(Vector2::zeros());
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.drive
+        .start(&mut b.ctrl, b.now, &trapezoid([1.0, 1.0], 2.0, 0.5))
+        .unwrap();
+    b.run(0.7);
+    b.drive.disarm(&mut b.ctrl);
+    let (tau, v) = b.period();
+    assert_eq!((tau, v), (0.0, 0.0));
+    assert!(!b.arm.enabled());
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Disarmed);
+}
