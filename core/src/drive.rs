@@ -109,6 +109,8 @@ pub enum MoveRequest<T> {
 pub struct Drive<T> {
     mode: Mode,
     clock: MoveClock,
+    /// The tick of the next motor step (the last step's, plus one).
+    next: Ticks,
     /// Trajectory time at which the running move or stop ends [s].
     end: T,
     /// Trajectory time at the clock's start [s] (a stop enters its trapezoid at its
@@ -125,6 +127,7 @@ impl<T: Real> Drive<T> {
         Self {
             mode: Mode::Disarmed,
             clock: MoveClock::new(now, motor_hz),
+            next: now,
             end: T::zero(),
             offset: T::zero(),
             limits,
@@ -167,7 +170,13 @@ impl<T: Real> Drive<T> {
             ctrl.idle_step(y)
         };
         self.tick(now);
+        self.next = now.next();
         report
+    }
+
+    /// The tick of the next motor step: where a command given between two steps starts.
+    pub fn next_tick(&self) -> Ticks {
+        self.next
     }
 
     /// A move or stop that has ended leaves the drive holding.

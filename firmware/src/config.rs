@@ -86,6 +86,10 @@ pub const START_TICK: Ticks = Ticks(if cfg!(feature = "start-before-wrap") {
     0
 });
 
+/// The paper's trapezoid from power-on (the QEMU verdict runs). A board boots disarmed and
+/// waits for a host (`docs/link.md`), as does the QEMU `link-session` build.
+pub const BOOT_MOVE: bool = cfg!(feature = "qemu") && !cfg!(feature = "link-session");
+
 /// Motor periods the amplifier fault line is ignored after each enable (10 ms).
 pub const AMPLIFIER_SETTLE: u32 = MOTOR_HZ / 100;
 /// Consecutive motor periods the fault line must stay asserted (3 ms on hardware).

@@ -3,22 +3,31 @@
 //! the idle task decodes them, answers, and streams the telemetry the host subscribed to. Both
 //! run below the control loops, so nothing on the link can delay them.
 //!
-//! This slice answers `Hello`, `Status`, `Ping`, `Subscribe` and `Unsubscribe`; every other
-//! command is refused with [`Refusal::Unsupported`] until the drive's modes exist (docs/link.md).
+//! The commands act on the drive (`flexarm_core::drive`): arm, disarm, estop, trapezoid moves,
+//! stop, clear. Not yet implemented, refused with [`Refusal::Unsupported`]: circles, waypoint
+//! lists, `get`/`set`, the fault recorder (docs/link.md).
 //!
 //! Hardware board: USART1 on PB6 (TX) and PB7 (RX) (the board configures the pins), 921 600
 //! baud, 8N1. QEMU board: the same USART, exposed by QEMU as a TCP socket
 //! (`scripts/qemu-link`).
 
-use flexarm_core::Fault;
+use flexarm_core::Vector2;
+use flexarm_core::controller::Controller;
+use flexarm_core::drive::{self, Drive, MoveRequest, Refused};
+use flexarm_core::observer::Measurement;
 use flexarm_link::msg::{
-    Board, Channels, Command, Hello, Load, MAX_CHANNELS, Mode, Refusal, Reply, Status, Telemetry,
+    Board, Channels, Command, Hello, Load, MAX_CHANNELS, Mode, Move, Refusal, Reply, Status,
+    Telemetry,
 };
 use flexarm_link::{DeviceMsg, Request, VERSION};
 use stm32f4::stm32f405::USART1;
 
 use crate::config::{MOTOR_HZ, PIEZO_HZ};
 use crate::telemetry::Record;
+
+/// The channels this firmware streams (V_f and the loads are not yet).
+const STREAMED: u16 =
+    Channels::ERROR | Channels::THETA | Channels::DELTA | Channels::TAU | Channels::V_A;
 
 /// Baud rate of the hardware board's link.
 pub const BAUD: u32 = 921_600;
@@ -87,16 +96,14 @@ impl Serial {
     }
 }
 
-/// What the idle task knows of the drive when it answers.
+/// What the idle task read for an answer besides the controller and the drive.
 #[derive(Clone, Copy, Debug)]
-pub struct Snapshot {
-    /// The latched fault.
-    pub fault: Option<Fault>,
-    /// The amplifiers are enabled.
-    pub enabled: bool,
-    /// The boot move is still running.
-    pub moving: bool,
-    /// Motor periods since boot (the last sample's).
+pub struct Io {
+    /// A fresh measurement (for `clear`).
+    pub y: Measurement<f32>,
+    /// The amplifiers' fault line.
+    pub amplifier_fault: bool,
+    /// Motor periods since boot (the last telemetry sample's).
     pub ticks: u64,
     /// Telemetry records the motor loop could not queue.
     pub dropped: u32,
@@ -122,14 +129,11 @@ impl Session {
         }
     }
 
-    /// Takes one received byte; a complete request returns its reply. A frame that does not
-    /// decode is dropped (it has no id to answer).
-    pub fn receive(&mut self, byte: u8, now: &Snapshot) -> Option<DeviceMsg> {
+    /// Takes one received byte; returns a complete request. A frame that does not decode is
+    /// dropped (it has no id to answer) and logged.
+    pub fn receive(&mut self, byte: u8) -> Option<Request> {
         match self.decoder.push::<Request>(byte)? {
-            Ok(req) => Some(DeviceMsg::Reply {
-                id: req.id,
-                reply: self.answer(req.command, now),
-            }),
+            Ok(req) => Some(req),
             Err(e) => {
                 defmt::warn!("link: frame dropped: {=str}", frame_error(e));
                 None
@@ -137,27 +141,53 @@ impl Session {
         }
     }
 
-    fn answer(&mut self, command: Command, now: &Snapshot) -> Reply {
+    /// The answer to `command`, applied to the controller and the drive (the caller holds
+    /// both for the duration: a few microseconds).
+    pub fn answer(
+        &mut self,
+        command: Command,
+        ctrl: &mut Controller<f32>,
+        drive: &mut Drive<f32>,
+        io: &Io,
+    ) -> Reply {
+        let done = |r: Result<(), Refused>| match r {
+            Ok(()) => Reply::Done,
+            Err(e) => Reply::Refused(refusal(e)),
+        };
+        let now = drive.next_tick();
         match command {
             Command::Hello { version } if version != VERSION => Reply::Refused(Refusal::Version),
-            Command::Hello { .. } => Reply::Hello(Hello {
-                version: VERSION,
-                board: if cfg!(feature = "qemu") {
-                    Board::Qemu
-                } else {
-                    Board::Hardware
-                },
-                build: heapless::String::try_from(concat!(
-                    "flexarm-firmware ",
-                    env!("CARGO_PKG_VERSION")
-                ))
-                .unwrap_or_default(),
-                params_hash: params_hash(),
-                motor_hz: MOTOR_HZ,
-                piezo_hz: PIEZO_HZ,
+            Command::Hello { .. } => Reply::Hello(hello()),
+            Command::Status => Reply::Status(Status {
+                mode: mode(drive.mode(ctrl)),
+                fault: ctrl.fault().map(|f| f as u8),
+                ticks: io.ticks,
+                loads: [load(&crate::stats::PIEZO), load(&crate::stats::MOTOR)],
+                telemetry_dropped: io.dropped.saturating_add(self.dropped),
             }),
-            Command::Status => Reply::Status(status(now, self.dropped)),
             Command::Ping => Reply::Done,
+            Command::Arm => done(drive.arm(ctrl, now)),
+            Command::Disarm | Command::Estop => {
+                drive.disarm(ctrl);
+                Reply::Done
+            }
+            Command::Stop => done(drive.stop(ctrl, now)),
+            Command::Clear => match drive.clear(ctrl, Some(&io.y), io.amplifier_fault) {
+                Ok(f) => Reply::Cleared(f as u8),
+                Err(e) => Reply::Refused(refusal(e)),
+            },
+            Command::Move(Move::Trapezoid {
+                target,
+                move_time,
+                ramp_time,
+            }) => {
+                let request = MoveRequest::Trapezoid {
+                    target: Vector2::new(target[0], target[1]),
+                    move_time,
+                    ramp_time,
+                };
+                done(drive.start(ctrl, now, &request).map(|_| ()))
+            }
             Command::Subscribe {
                 decimation,
                 channels,
@@ -173,7 +203,11 @@ impl Session {
                 self.subscription = None;
                 Reply::Done
             }
-            _ => Reply::Refused(Refusal::Unsupported),
+            Command::Move(Move::Circle { .. } | Move::Waypoints { .. })
+            | Command::Waypoints { .. }
+            | Command::Get(_)
+            | Command::Set(..)
+            | Command::Faults { .. } => Reply::Refused(Refusal::Unsupported),
         }
     }
 
@@ -184,6 +218,7 @@ impl Session {
         let Record::Sample {
             tick,
             error,
+            theta,
             delta,
             tau,
             v_a,
@@ -202,6 +237,7 @@ impl Session {
         let c = channels.0;
         for (bit, v) in [
             (Channels::ERROR, &error[..]),
+            (Channels::THETA, &theta[..]),
             (Channels::DELTA, &delta[..]),
             (Channels::TAU, &tau[..]),
             (Channels::V_A, &[v_a][..]),
@@ -215,9 +251,7 @@ impl Session {
         Some(DeviceMsg::Telemetry(Telemetry {
             seq,
             tick,
-            channels: Channels(
-                c & (Channels::ERROR | Channels::DELTA | Channels::TAU | Channels::V_A),
-            ),
+            channels: Channels(c & STREAMED),
             values,
         }))
     }
@@ -228,23 +262,49 @@ impl Session {
     }
 }
 
-fn status(now: &Snapshot, link_dropped: u32) -> Status {
-    let load = |s: &crate::stats::TaskStats| Load {
+fn load(s: &crate::stats::TaskStats) -> Load {
+    Load {
         mean_cycles: s.mean(),
         worst_cycles: s.worst(),
         misses: s.misses(),
-    };
-    Status {
-        mode: match (now.fault, now.enabled, now.moving) {
-            (Some(_), _, _) => Mode::Fault,
-            (None, false, _) => Mode::Disarmed,
-            (None, true, true) => Mode::Moving,
-            (None, true, false) => Mode::Armed,
+    }
+}
+
+fn mode(m: drive::Mode) -> Mode {
+    match m {
+        drive::Mode::Disarmed => Mode::Disarmed,
+        drive::Mode::Armed => Mode::Armed,
+        drive::Mode::Moving => Mode::Moving,
+        drive::Mode::Stopping => Mode::Stopping,
+        drive::Mode::Fault => Mode::Fault,
+    }
+}
+
+fn refusal(r: Refused) -> Refusal {
+    match r {
+        Refused::Faulted => Refusal::Faulted,
+        Refused::NotArmed => Refusal::NotArmed,
+        Refused::Moving => Refusal::Moving,
+        Refused::CauseActive => Refusal::CauseActive,
+        Refused::OutOfRange => Refusal::OutOfRange,
+        Refused::Unreachable => Refusal::Unreachable,
+        Refused::TooFast => Refusal::TooFast,
+    }
+}
+
+fn hello() -> Hello {
+    Hello {
+        version: VERSION,
+        board: if cfg!(feature = "qemu") {
+            Board::Qemu
+        } else {
+            Board::Hardware
         },
-        fault: now.fault.map(|f| f as u8),
-        ticks: now.ticks,
-        loads: [load(&crate::stats::PIEZO), load(&crate::stats::MOTOR)],
-        telemetry_dropped: now.dropped.saturating_add(link_dropped),
+        build: heapless::String::try_from(concat!("flexarm-firmware ", env!("CARGO_PKG_VERSION")))
+            .unwrap_or_default(),
+        params_hash: params_hash(),
+        motor_hz: MOTOR_HZ,
+        piezo_hz: PIEZO_HZ,
     }
 }
 

@@ -14,6 +14,9 @@
 //! latch. The tasks only move numbers between the board and the controller.
 #![no_std]
 #![no_main]
+// The QEMU link-session build has no boot move and no end-of-run verdict: the verdict's code
+// (RunCheck, `verdict`, the stack report) is compiled but unused there.
+#![cfg_attr(feature = "link-session", allow(dead_code))]
 
 mod board;
 mod clock;
@@ -43,9 +46,10 @@ use flexarm_core::controller::Controller;
 
 #[rtic::app(device = stm32f4::stm32f405, peripherals = true)]
 mod app {
-    use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
+    use core::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
     use flexarm_core::control::motor::MotorLaw;
+    use flexarm_core::drive::{Drive, MoveLimits, MoveRequest};
     use flexarm_core::observer::Measurement;
     use flexarm_core::observer_gains::gain;
     use flexarm_core::supervisor::AmplifierMonitor;
@@ -72,8 +76,6 @@ mod app {
     static MOTOR_HEARTBEAT: AtomicU32 = AtomicU32::new(0);
     /// Piezo steps done, for the supervisor's liveness check.
     static PIEZO_HEARTBEAT: AtomicU32 = AtomicU32::new(0);
-    /// The motor loop's last enable command, for the link's status.
-    static ENABLED: AtomicBool = AtomicBool::new(false);
     /// Link bytes lost because the receive queue was full.
     static RX_OVERFLOWS: AtomicU32 = AtomicU32::new(0);
     /// Telemetry records the motor loop could not queue.
@@ -94,6 +96,7 @@ mod app {
     #[shared]
     struct Shared {
         ctrl: Controller<f32>,
+        drive: Drive<f32>,
         board: BoardImpl,
         check: RunCheck,
     }
@@ -229,6 +232,27 @@ mod app {
         // The observer starts where the encoders are.
         let mut board = board;
         ctrl.reset_observer(board.encoders());
+        // Disarmed until a host arms it; the QEMU verdict runs start the paper's move at boot.
+        let mut drive = Drive::new(
+            &mut ctrl,
+            MOTOR_HZ,
+            config::START_TICK,
+            MoveLimits::default(),
+        );
+        if config::BOOT_MOVE && ctrl.fault().is_none() {
+            let half_pi = core::f32::consts::FRAC_PI_2;
+            let boot = MoveRequest::Trapezoid {
+                target: Vector2::new(half_pi, half_pi),
+                move_time: 2.0,
+                ramp_time: 0.5,
+            };
+            let started = drive
+                .arm(&mut ctrl, config::START_TICK)
+                .and_then(|()| drive.start(&mut ctrl, config::START_TICK, &boot));
+            if started.is_err() {
+                defmt::error!("the boot move was refused by the drive's limits");
+            }
+        }
         if let Some(f) = ctrl.fault() {
             defmt::error!("starting in the safe state: {=str}", f.as_str());
         }
@@ -265,6 +289,7 @@ mod app {
         (
             Shared {
                 ctrl,
+                drive,
                 board,
                 check: RunCheck::default(),
             },
@@ -303,16 +328,15 @@ mod app {
 
     /// Telemetry and the command link: prints queued records and streams the subscribed ones;
     /// answers the link's requests; at the end of a QEMU run, checks the bounds and exits.
-    #[idle(local = [consumer, rx_consumer, serial, session, last: (u64, f32) = (0, 0.0), overflows_seen: u32 = 0], shared = [check, ctrl, board])]
+    #[idle(local = [consumer, rx_consumer, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0], shared = [check, ctrl, drive, board])]
     fn idle(mut cx: idle::Context) -> ! {
         use crate::link;
         crate::stack::paint();
-        let move_end = Trapezoid::<f32>::paper().profile.duration();
         loop {
             while let Some(r) = cx.local.consumer.dequeue() {
                 telemetry::print(&r);
-                if let Record::Sample { tick, t, .. } = r {
-                    *cx.local.last = (tick, t);
+                if let Record::Sample { tick, .. } = r {
+                    *cx.local.last_tick = tick;
                 }
                 if let Some(msg) = cx.local.session.telemetry(&r)
                     && !link::send(cx.local.serial, &msg)
@@ -326,18 +350,34 @@ mod app {
                 defmt::warn!("link: {=u32} received bytes lost (queue full)", overflows);
             }
             while let Some(byte) = cx.local.rx_consumer.dequeue() {
-                let (tick, t) = *cx.local.last;
-                let now = link::Snapshot {
-                    fault: cx.shared.ctrl.lock(|c| c.fault()),
-                    enabled: ENABLED.load(Relaxed),
-                    moving: t < move_end,
-                    ticks: tick,
+                let Some(request) = cx.local.session.receive(byte) else {
+                    continue;
+                };
+                let (y, amplifier_fault) = cx.shared.board.lock(|b| {
+                    let y = Measurement {
+                        theta: b.encoders(),
+                        v_f: b.latest_film_voltage(),
+                    };
+                    (y, b.amplifier_fault())
+                });
+                let io = link::Io {
+                    y,
+                    amplifier_fault,
+                    ticks: *cx.local.last_tick,
                     dropped: TELEMETRY_DROPS.load(Relaxed),
                 };
-                if let Some(reply) = cx.local.session.receive(byte, &now) {
-                    link::send(cx.local.serial, &reply);
-                }
+                let session = &mut cx.local.session;
+                let reply = (&mut cx.shared.ctrl, &mut cx.shared.drive)
+                    .lock(|c, d| session.answer(request.command, c, d, &io));
+                link::send(
+                    cx.local.serial,
+                    &flexarm_link::DeviceMsg::Reply {
+                        id: request.id,
+                        reply,
+                    },
+                );
             }
+            #[cfg(not(feature = "link-session"))]
             if cx.shared.check.lock(|c| c.finished) {
                 #[cfg(feature = "qemu")]
                 finish(&mut cx);
@@ -386,7 +426,7 @@ mod app {
     }
 
     /// Motor loop: encoders and film in, observer, Eq. 7, torques out.
-    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, telemetry_drops, fault_sent, amplifier, enabled], shared = [ctrl, board, check])]
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, telemetry_drops, fault_sent, amplifier, enabled], shared = [ctrl, drive, board, check])]
     fn motor_loop(mut cx: motor_loop::Context) {
         let start = clock::now();
         cx.local.tim3.sr().write(|w| w.uif().clear_bit());
@@ -407,12 +447,12 @@ mod app {
         };
         // The fault line counts only while the amplifiers are enabled (debounced, after settling).
         let amp = cx.local.amplifier.update(*cx.local.enabled, amp_fault);
-        let (report, fault, q_hat) = cx.shared.ctrl.lock(|c| {
+        let (report, fault, q_hat) = (&mut cx.shared.ctrl, &mut cx.shared.drive).lock(|c, d| {
             if let Err(f) = amp {
                 c.trip(f);
             }
             (
-                c.motor_step(t, Some(&Measurement { theta, v_f })),
+                d.step(c, tick, Some(&Measurement { theta, v_f })),
                 c.fault(),
                 sample.then(|| c.estimate().0),
             )
@@ -423,7 +463,6 @@ mod app {
             b.set_enable(cmd.enable);
         });
         *cx.local.enabled = cmd.enable;
-        ENABLED.store(cmd.enable, Relaxed);
         MOTOR_HEARTBEAT.fetch_add(1, Relaxed);
 
         // Telemetry: periodic samples; the fault event the moment the latch is seen.
@@ -448,13 +487,14 @@ mod app {
                 tick: tick.0,
                 t,
                 error,
+                theta: [q.x, q.y],
                 delta: [q.z, q.w],
                 tau: [cmd.tau.x, cmd.tau.y],
                 v_a: cmd.v_a,
             });
         }
 
-        #[cfg(feature = "qemu")]
+        #[cfg(all(feature = "qemu", not(feature = "link-session")))]
         cx.shared.check.lock(|chk| {
             cx.shared.board.lock(|b| {
                 let x = b.arm.x;

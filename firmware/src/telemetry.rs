@@ -13,6 +13,8 @@ pub enum Record {
         t: f32,
         /// Joint tracking errors θ − θ_d [rad].
         error: [f32; 2],
+        /// Estimated joint angles θ̂ [rad].
+        theta: [f32; 2],
         /// Estimated modal coordinates δ̂ [√kg·m].
         delta: [f32; 2],
         /// Motor torques applied [N·m].
@@ -46,6 +48,7 @@ pub fn print(r: &Record) {
             delta,
             tau,
             v_a,
+            ..
         } => defmt::info!(
             "tick={=u64} t={=f32} s err=({=f32},{=f32}) rad delta=({=f32},{=f32}) tau=({=f32},{=f32}) N*m V_a={=f32} V",
             tick,
