@@ -74,6 +74,7 @@ struct File {
 struct PlantSpec {
     kind: PlantKind,
     link: Option<LinkSpec>,
+    controller: Option<ControllerModelSpec>,
     modes: Option<usize>,
     thickness: Option<f64>,
     tip_mass: Option<f64>,
@@ -107,6 +108,16 @@ enum LinkSpec {
     Arm,
 }
 
+/// What the controller's model is on a truth plant.
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum ControllerModelSpec {
+    /// The truncation of the truth's link (its first two modes).
+    Truncation,
+    /// The scenario's `[arm]` and patch as given: a model error on purpose.
+    Arm,
+}
+
 impl PlantSpec {
     /// The truth plant this table describes (`None`: the controller's own model).
     fn truth(&self) -> Result<Option<TruthSpec>, ScenarioError> {
@@ -130,6 +141,7 @@ impl PlantSpec {
                 self.amplifier_window,
             ];
             return match self.link.is_some()
+                || self.controller.is_some()
                 || self.modes.is_some()
                 || self.zeta.is_some()
                 || self.ideal.is_some()
@@ -736,16 +748,16 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             JointTrajectory::Hold(held)
         }
     };
-    if let Some(t) = f
-        .plant
-        .as_ref()
-        .map(PlantSpec::truth)
-        .transpose()?
-        .flatten()
+    if let Some(p) = &f.plant
+        && let Some(t) = p.truth()?
     {
+        let given = (cfg.arm, cfg.patch);
         cfg = cfg
             .with_truth(t)
             .map_err(|e| ScenarioError(format!("[plant]: {e}")))?;
+        if p.controller == Some(ControllerModelSpec::Arm) {
+            (cfg.arm, cfg.patch) = given;
+        }
     }
     cfg.validate(&trajectory)
         .map_err(|e| ScenarioError(e.to_string()))?;

@@ -311,3 +311,25 @@ fn the_consistent_arm_keeps_the_deflections_small() {
     assert!(tips[0] > 0.1, "{tips:?}");
     assert!(tips[2] < 0.02, "{tips:?}");
 }
+
+#[test]
+fn a_scenario_can_give_the_controller_another_model_on_purpose() {
+    let text = |controller: &str| {
+        format!(
+            "[trajectory]\nkind = \"trapezoid\"\n[controller]\npiezo = true\n[plant]\nkind = \"truth\"\n{controller}\n"
+        )
+    };
+    let truncation = flexarm_sim::scenario::parse(&text("")).unwrap().config;
+    let given = flexarm_sim::scenario::parse(&text("controller = \"arm\""))
+        .unwrap()
+        .config;
+    // The same truth plant under both; the controller's model is the beam's truncation, or the
+    // scenario's own arm (the paper's) as given.
+    assert_eq!(truncation.truth, given.truth);
+    assert_eq!(truncation.plant, given.plant);
+    assert_eq!(given.arm, ArmParams::default());
+    assert_eq!(given.patch, PiezoPatch::paper());
+    assert_ne!(truncation.arm, given.arm);
+    let f1 = truncation.arm.modes.omega.x / std::f64::consts::TAU;
+    assert!((f1 - 4.54).abs() < 0.01, "{f1}");
+}
