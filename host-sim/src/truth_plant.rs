@@ -445,15 +445,6 @@ impl<const D: usize> TruthPlant<D> {
         )
     }
 
-    /// The voltage on the patch now [V].
-    pub fn patch_voltage(&self) -> f64 {
-        self.amplifier.voltage()
-    }
-
-    /// The motors' torques now (after their current loops, before friction) [N·m].
-    pub fn motor_torques(&self) -> Vector2<f64> {
-        Vector2::new(self.motors[0].torque(), self.motors[1].torque())
-    }
 }
 
 impl<const D: usize> Plant for TruthPlant<D> {
