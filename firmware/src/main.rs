@@ -232,27 +232,6 @@ mod app {
         // The observer starts where the encoders are.
         let mut board = board;
         ctrl.reset_observer(board.encoders());
-        // Disarmed until a host arms it; the QEMU verdict runs start the paper's move at boot.
-        let mut drive = Drive::new(
-            &mut ctrl,
-            MOTOR_HZ,
-            config::START_TICK,
-            MoveLimits::default(),
-        );
-        if config::BOOT_MOVE && ctrl.fault().is_none() {
-            let half_pi = core::f32::consts::FRAC_PI_2;
-            let boot = MoveRequest::Trapezoid {
-                target: Vector2::new(half_pi, half_pi),
-                move_time: 2.0,
-                ramp_time: 0.5,
-            };
-            let started = drive
-                .arm(&mut ctrl, config::START_TICK)
-                .and_then(|()| drive.start(&mut ctrl, config::START_TICK, &boot));
-            if started.is_err() {
-                defmt::error!("the boot move was refused by the drive's limits");
-            }
-        }
         if let Some(f) = ctrl.fault() {
             defmt::error!("starting in the safe state: {=str}", f.as_str());
         }
@@ -277,6 +256,29 @@ mod app {
             TIMER_CLOCK_HZ / 100_000
         );
 
+        // Disarmed until a host arms it; the QEMU verdict runs start the paper's move at boot.
+        // After the timers start: code before them shifts the QEMU timers' phase, and with it
+        // the uptime runs' equality (scripts/qemu-uptime), by its tick-dependent length.
+        let mut drive = Drive::new(
+            &mut ctrl,
+            MOTOR_HZ,
+            config::START_TICK,
+            MoveLimits::default(),
+        );
+        if config::BOOT_MOVE && ctrl.fault().is_none() {
+            let half_pi = core::f32::consts::FRAC_PI_2;
+            let boot = MoveRequest::Trapezoid {
+                target: Vector2::new(half_pi, half_pi),
+                move_time: 2.0,
+                ramp_time: 0.5,
+            };
+            let started = drive
+                .arm(&mut ctrl, config::START_TICK)
+                .and_then(|()| drive.start(&mut ctrl, config::START_TICK, &boot));
+            if started.is_err() {
+                defmt::error!("the boot move was refused by the drive's limits");
+            }
+        }
         let (producer, consumer) = cx.local.queue.split();
         let (rx_producer, rx_consumer) = cx.local.rx_queue.split();
         let serial = crate::link::Serial::new(dp.USART1, &dp.RCC);
