@@ -273,3 +273,54 @@ fn disarm_is_always_accepted_and_cuts_the_outputs_in_the_same_period() {
     assert!(!b.arm.enabled());
     assert_eq!(b.drive.mode(&b.ctrl), Mode::Disarmed);
 }
+
+#[test]
+fn the_link_watchdog_stops_a_move_the_host_stopped_watching() {
+    let mut b = Bench::new(Vector2::zeros());
+    b.drive.link_timeout = 200; // 0.2 s at 1 kHz
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    // No host has spoken: a move runs to its end unwatched (the QEMU verdict runs' boot move).
+    b.drive
+        .start(&mut b.ctrl, b.now, &trapezoid([0.5, 0.0], 1.0, 0.25))
+        .unwrap();
+    b.run(1.1);
+    assert_eq!(
+        (b.drive.mode(&b.ctrl), b.drive.link_stops()),
+        (Mode::Armed, 0)
+    );
+    // A host that keeps talking keeps its move.
+    b.drive.heard(b.now);
+    b.drive
+        .start(&mut b.ctrl, b.now, &trapezoid([0.0, 0.0], 1.0, 0.25))
+        .unwrap();
+    for _ in 0..11 {
+        b.drive.heard(b.now);
+        b.run(0.1);
+    }
+    assert_eq!(
+        (b.drive.mode(&b.ctrl), b.drive.link_stops()),
+        (Mode::Armed, 0)
+    );
+    assert!(b.theta().abs().max() < 2e-3, "reached its target");
+    // A host that falls silent: stopped 0.2 s later, short of the target, then holding.
+    b.drive.heard(b.now);
+    b.drive
+        .start(&mut b.ctrl, b.now, &trapezoid([1.0, 0.0], 2.0, 0.5))
+        .unwrap();
+    b.run(0.15);
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Moving, "within the timeout");
+    b.run(0.1);
+    assert_ne!(b.drive.mode(&b.ctrl), Mode::Moving);
+    assert_eq!(b.drive.link_stops(), 1);
+    b.run(1.0);
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Armed);
+    let held = b.theta().x;
+    assert!(
+        held > 0.01 && held < 0.2,
+        "stopped early in the move: {held}"
+    );
+    assert!(
+        b.arm.enabled() && b.ctrl.fault().is_none(),
+        "a stop, not a fault"
+    );
+}

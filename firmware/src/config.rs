@@ -90,6 +90,15 @@ pub const START_TICK: Ticks = Ticks(if cfg!(feature = "start-before-wrap") {
 /// waits for a host (`docs/link.md`), as does the QEMU `link-session` build.
 pub const BOOT_MOVE: bool = cfg!(feature = "qemu") && !cfg!(feature = "link-session");
 
+/// The link watchdog [s]: a move stops when the host has been silent this long (after it first
+/// spoke). QEMU runs a virtual second in a few tens of milliseconds of the host's, so its session
+/// build allows more virtual time for the same host.
+#[cfg(feature = "qemu")]
+pub const LINK_TIMEOUT_S: u32 = 5;
+/// The link watchdog [s] (see the QEMU board's).
+#[cfg(not(feature = "qemu"))]
+pub const LINK_TIMEOUT_S: u32 = 1;
+
 /// Motor periods the amplifier fault line is ignored after each enable (10 ms).
 pub const AMPLIFIER_SETTLE: u32 = MOTOR_HZ / 100;
 /// Consecutive motor periods the fault line must stay asserted (3 ms on hardware).

@@ -155,6 +155,7 @@ impl Session {
             Err(e) => Reply::Refused(refusal(e)),
         };
         let now = drive.next_tick();
+        drive.heard(now);
         match command {
             Command::Hello { version } if version != VERSION => Reply::Refused(Refusal::Version),
             Command::Hello { .. } => Reply::Hello(hello()),
@@ -164,6 +165,7 @@ impl Session {
                 ticks: io.ticks,
                 loads: [load(&crate::stats::PIEZO), load(&crate::stats::MOTOR)],
                 telemetry_dropped: io.dropped.saturating_add(self.dropped),
+                link_stops: drive.link_stops(),
             }),
             Command::Ping => Reply::Done,
             Command::Arm => done(drive.arm(ctrl, now)),

@@ -265,6 +265,7 @@ mod app {
             config::START_TICK,
             MoveLimits::default(),
         );
+        drive.link_timeout = config::LINK_TIMEOUT_S * MOTOR_HZ;
         if config::BOOT_MOVE && ctrl.fault().is_none() {
             let half_pi = core::f32::consts::FRAC_PI_2;
             let boot = MoveRequest::Trapezoid {
@@ -330,7 +331,7 @@ mod app {
 
     /// Telemetry and the command link: prints queued records and streams the subscribed ones;
     /// answers the link's requests; at the end of a QEMU run, checks the bounds and exits.
-    #[idle(local = [consumer, rx_consumer, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0], shared = [check, ctrl, drive, board])]
+    #[idle(local = [consumer, rx_consumer, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0, stops_seen: u32 = 0], shared = [check, ctrl, drive, board])]
     fn idle(mut cx: idle::Context) -> ! {
         use crate::link;
         crate::stack::paint();
@@ -345,6 +346,14 @@ mod app {
                 {
                     cx.local.session.dropped();
                 }
+            }
+            let stops = cx.shared.drive.lock(|d| d.link_stops());
+            if stops != *cx.local.stops_seen {
+                *cx.local.stops_seen = stops;
+                defmt::warn!(
+                    "link watchdog: the host fell silent during a move; stopped ({=u32} so far)",
+                    stops
+                );
             }
             let overflows = RX_OVERFLOWS.load(Relaxed);
             if overflows != *cx.local.overflows_seen {

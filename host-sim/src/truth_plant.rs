@@ -444,7 +444,6 @@ impl<const D: usize> TruthPlant<D> {
             self.motors[1].friction(qd[1]),
         )
     }
-
 }
 
 impl<const D: usize> Plant for TruthPlant<D> {

@@ -307,6 +307,8 @@ pub struct Status {
     pub loads: [Load; 2],
     /// Telemetry frames dropped because the link could not keep up.
     pub telemetry_dropped: u32,
+    /// Moves the link watchdog stopped because the host fell silent.
+    pub link_stops: u32,
 }
 
 /// One telemetry frame.

@@ -118,16 +118,20 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
         load.clone(),
         load,
         any::<u32>(),
+        any::<u32>(),
     )
-        .prop_map(|(mode, fault, ticks, a, b, telemetry_dropped)| {
-            Reply::Status(Status {
-                mode,
-                fault,
-                ticks,
-                loads: [a, b],
-                telemetry_dropped,
-            })
-        });
+        .prop_map(
+            |(mode, fault, ticks, a, b, telemetry_dropped, link_stops)| {
+                Reply::Status(Status {
+                    mode,
+                    fault,
+                    ticks,
+                    loads: [a, b],
+                    telemetry_dropped,
+                    link_stops,
+                })
+            },
+        );
     let hello = ("[a-z0-9 .+-]{0,32}", any::<u32>(), any::<u16>()).prop_map(|(b, h, v)| {
         Reply::Hello(Hello {
             version: v,
@@ -288,6 +292,7 @@ fn the_largest_of_every_message_fits_a_frame() {
                 ticks: u64::MAX,
                 loads: [load; 2],
                 telemetry_dropped: u32::MAX,
+                link_stops: u32::MAX,
             }),
         },
     ];

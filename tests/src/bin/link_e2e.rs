@@ -7,7 +7,8 @@
 //! move refused while disarmed; arm; moves refused whole with their reasons (out of reach, too
 //! fast); a trapezoid move, another one refused while it runs, its end awaited, and its tracking
 //! error within three times what the host simulation of the same move shows; a long move
-//! stopped on its way, which decelerates and holds short of its target; disarm, estop; a clear
+//! stopped on its way, which decelerates and holds short of its target; a move stopped by the
+//! link watchdog while the host is silent; disarm, estop; a clear
 //! refused with no fault latched; a command not implemented yet refused as such; and the
 //! telemetry of the whole session without a sequence gap. Prints one line per check; exit
 //! status 0 only if all pass.
@@ -388,6 +389,31 @@ fn run(port: u16) -> Result<(), String> {
         "after the stop it holds, and takes a new move",
         format!("{r:?}"),
     )?;
+    link.await_mode(Mode::Armed)?;
+
+    // The link watchdog: a host that falls silent during an 8 s move (QEMU's watchdog: 5 s of
+    // virtual time, a few hundred milliseconds of the host's) has it stopped short of its end.
+    let r = link.ask(trapezoid([0.8, -0.5], 8.0, 2.0))?;
+    check(r == Reply::Done, "an 8 s move starts", format!("{r:?}"))?;
+    std::thread::sleep(Duration::from_millis(1500));
+    let r = link.ask(Command::Status)?;
+    let Reply::Status(s) = r else {
+        return Err(format!("status: {r:?}"));
+    };
+    let reached = link
+        .telemetry
+        .last()
+        .map_or([0.0; 2], |f| [f.values[2], f.values[3]]);
+    check(
+        s.mode == Mode::Armed && s.link_stops == 1 && reached[0] > 0.05 && reached[0] < 0.75,
+        "the link watchdog stops a move whose host fell silent",
+        format!(
+            "{:?}, {} watchdog stop, holding at θ̂ = ({:.3}, {:.3}) rad short of (0.8, -0.5)",
+            s.mode, s.link_stops, reached[0], reached[1]
+        ),
+    )?;
+    let r = link.ask(trapezoid([0.0, 0.0], 4.0, 1.0))?;
+    check(r == Reply::Done, "a new move after it", format!("{r:?}"))?;
     let r = link.ask(Command::Disarm)?;
     check(
         r == Reply::Done && link.mode()? == Mode::Disarmed,
