@@ -41,6 +41,7 @@ pub mod simarm;
 pub mod supervisor;
 pub mod time;
 pub mod trajectory;
+pub mod tuning;
 
 pub use fault::Fault;
 pub use params::{ArmParams, ParamError};

@@ -83,6 +83,17 @@ impl Bench {
         peak
     }
 
+    /// `Tuning::set` in the drive's mode now.
+    fn tune(
+        &mut self,
+        t: &mut flexarm_core::tuning::Tuning<f32>,
+        p: flexarm_core::tuning::Tunable,
+        v: f32,
+    ) -> Result<(), flexarm_core::tuning::TuneError> {
+        let mode = self.drive.mode(&self.ctrl);
+        t.set(&mut self.ctrl, mode, p, v)
+    }
+
     fn theta(&self) -> Vector2<f32> {
         Vector2::new(self.arm.x.q.x, self.arm.x.q.y)
     }
@@ -323,4 +334,64 @@ fn the_link_watchdog_stops_a_move_the_host_stopped_watching() {
         b.arm.enabled() && b.ctrl.fault().is_none(),
         "a stop, not a fault"
     );
+}
+
+#[test]
+fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
+    use flexarm_core::control::piezo::{PiezoGains, PiezoLaw};
+    use flexarm_core::tuning::{Tunable, TuneError, Tuning};
+    let mut b = Bench::new(Vector2::zeros());
+    let mut t = Tuning {
+        piezo: PiezoGains::default(),
+        piezo_period: 1e-4,
+        tau_ceiling: Vector2::new(10.0, 10.0),
+        v_a_ceiling: 200.0,
+    };
+    // At rest: applied, and read back.
+    b.tune(&mut t, Tunable::Kp(1), 20.0).unwrap();
+    assert_eq!(t.get(&b.ctrl, Tunable::Kp(1)), Ok(20.0));
+    assert_eq!(b.ctrl.motor.gains.kp.y, 20.0);
+    b.tune(&mut t, Tunable::Kc, 3.0).unwrap();
+    assert_eq!(t.get(&b.ctrl, Tunable::Kc), Ok(3.0));
+    let want = PiezoLaw::new(
+        &PiezoGains {
+            k_c: 3.0,
+            cutoff_hz: 100.0,
+        },
+        1e-4,
+        200.0,
+    );
+    assert_eq!(
+        b.ctrl.piezo, want,
+        "the piezo law rebuilt with the new gain"
+    );
+    // Refused, and nothing written: out of range, unknown, above the board's ceiling.
+    let before = (b.ctrl.motor, b.ctrl.piezo, t);
+    for (p, v, why) in [
+        (Tunable::Kp(0), -1.0, TuneError::OutOfRange),
+        (Tunable::Lambda(2), 0.0, TuneError::OutOfRange),
+        (Tunable::Kc, f32::NAN, TuneError::OutOfRange),
+        (Tunable::Kc, -3.0, TuneError::OutOfRange),
+        (Tunable::CutoffHz, 1e9, TuneError::OutOfRange),
+        (Tunable::TauMax(0), 12.0, TuneError::OutOfRange),
+        (Tunable::VaMax, 250.0, TuneError::OutOfRange),
+        (Tunable::Kp(4), 1.0, TuneError::Unknown),
+        (Tunable::DDelta(2), 1.0, TuneError::Unknown),
+    ] {
+        assert_eq!(b.tune(&mut t, p, v), Err(why), "{p:?} = {v}");
+    }
+    assert_eq!((b.ctrl.motor, b.ctrl.piezo, t), before);
+    assert_eq!(t.get(&b.ctrl, Tunable::TauMax(2)), Err(TuneError::Unknown));
+    // While a move runs: refused; after it: accepted.
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.drive
+        .start(&mut b.ctrl, b.now, &trapezoid([0.3, 0.0], 1.0, 0.25))
+        .unwrap();
+    b.run(0.1);
+    assert_eq!(b.tune(&mut t, Tunable::Kp(0), 50.0), Err(TuneError::Moving));
+    b.run(1.0);
+    b.tune(&mut t, Tunable::Kp(0), 50.0).unwrap();
+    assert_eq!(b.ctrl.motor.gains.kp.x, 50.0);
+    b.run(0.5);
+    assert!(b.ctrl.fault().is_none() && (b.theta().x - 0.3).abs() < 2e-3);
 }

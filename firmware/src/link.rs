@@ -4,8 +4,9 @@
 //! run below the control loops, so nothing on the link can delay them.
 //!
 //! The commands act on the drive (`flexarm_core::drive`): arm, disarm, estop, trapezoid moves,
-//! stop, clear. Not yet implemented, refused with [`Refusal::Unsupported`]: circles, waypoint
-//! lists, `get`/`set`, the fault recorder (docs/link.md).
+//! stop, clear; `get`/`set` on the tunable parameters (`flexarm_core::tuning`) and the link
+//! watchdog's timeout. Not yet implemented, refused with [`Refusal::Unsupported`]: circles,
+//! waypoint lists, the fault recorder (docs/link.md).
 //!
 //! Hardware board: USART1 on PB6 (TX) and PB7 (RX) (the board configures the pins), 921 600
 //! baud, 8N1. QEMU board: the same USART, exposed by QEMU as a TCP socket
@@ -15,8 +16,9 @@ use flexarm_core::Vector2;
 use flexarm_core::controller::Controller;
 use flexarm_core::drive::{self, Drive, MoveRequest, Refused};
 use flexarm_core::observer::Measurement;
+use flexarm_core::tuning::{Tunable, TuneError, Tuning};
 use flexarm_link::msg::{
-    Board, Channels, Command, Hello, Load, MAX_CHANNELS, Mode, Move, Refusal, Reply, Status,
+    Board, Channels, Command, Hello, Load, MAX_CHANNELS, Mode, Move, Param, Refusal, Reply, Status,
     Telemetry,
 };
 use flexarm_link::{DeviceMsg, Request, VERSION};
@@ -109,9 +111,10 @@ pub struct Io {
     pub dropped: u32,
 }
 
-/// One host session: the decoder and the subscription.
+/// One host session: the decoder, the subscription and the tunable parameters.
 pub struct Session {
     decoder: flexarm_link::Decoder,
+    tuning: Tuning<f32>,
     /// `(decimation, channels, countdown)` while subscribed.
     subscription: Option<(u16, Channels, u16)>,
     seq: u32,
@@ -119,10 +122,11 @@ pub struct Session {
 }
 
 impl Session {
-    /// No host yet.
-    pub const fn new() -> Self {
+    /// No host yet; `tuning` holds the parameters in force.
+    pub const fn new(tuning: Tuning<f32>) -> Self {
         Self {
             decoder: flexarm_link::Decoder::new(),
+            tuning,
             subscription: None,
             seq: 0,
             dropped: 0,
@@ -205,10 +209,35 @@ impl Session {
                 self.subscription = None;
                 Reply::Done
             }
+            Command::Get(Param::LinkTimeout) => {
+                Reply::Value(drive.link_timeout as f32 / MOTOR_HZ as f32)
+            }
+            Command::Set(Param::LinkTimeout, v) => {
+                if matches!(
+                    drive.mode(ctrl),
+                    drive::Mode::Moving | drive::Mode::Stopping
+                ) {
+                    Reply::Refused(Refusal::Moving)
+                } else if (0.0..=3600.0).contains(&v) {
+                    drive.link_timeout = (v * MOTOR_HZ as f32) as u32;
+                    Reply::Done
+                } else {
+                    Reply::Refused(Refusal::OutOfRange)
+                }
+            }
+            Command::Get(p) => match tunable(p).and_then(|p| self.tuning.get(ctrl, p)) {
+                Ok(v) => Reply::Value(v),
+                Err(e) => Reply::Refused(tune_refusal(e)),
+            },
+            Command::Set(p, v) => {
+                let mode = drive.mode(ctrl);
+                match tunable(p).and_then(|p| self.tuning.set(ctrl, mode, p, v)) {
+                    Ok(()) => Reply::Done,
+                    Err(e) => Reply::Refused(tune_refusal(e)),
+                }
+            }
             Command::Move(Move::Circle { .. } | Move::Waypoints { .. })
             | Command::Waypoints { .. }
-            | Command::Get(_)
-            | Command::Set(..)
             | Command::Faults { .. } => Reply::Refused(Refusal::Unsupported),
         }
     }
@@ -291,6 +320,28 @@ fn refusal(r: Refused) -> Refusal {
         Refused::OutOfRange => Refusal::OutOfRange,
         Refused::Unreachable => Refusal::Unreachable,
         Refused::TooFast => Refusal::TooFast,
+    }
+}
+
+/// The core's name of a link parameter (the link timeout is the drive's, not here).
+fn tunable(p: Param) -> Result<Tunable, TuneError> {
+    Ok(match p {
+        Param::Kp(i) => Tunable::Kp(usize::from(i)),
+        Param::Lambda(i) => Tunable::Lambda(usize::from(i)),
+        Param::DDelta(i) => Tunable::DDelta(usize::from(i)),
+        Param::Kc => Tunable::Kc,
+        Param::CutoffHz => Tunable::CutoffHz,
+        Param::TauMax(i) => Tunable::TauMax(usize::from(i)),
+        Param::VaMax => Tunable::VaMax,
+        Param::LinkTimeout => return Err(TuneError::Unknown),
+    })
+}
+
+fn tune_refusal(e: TuneError) -> Refusal {
+    match e {
+        TuneError::Unknown => Refusal::UnknownParam,
+        TuneError::OutOfRange => Refusal::OutOfRange,
+        TuneError::Moving => Refusal::Moving,
     }
 }
 

@@ -306,7 +306,12 @@ mod app {
                 rx_consumer,
                 rx: crate::link::Receiver,
                 serial,
-                session: crate::link::Session::new(),
+                session: crate::link::Session::new(flexarm_core::tuning::Tuning {
+                    piezo: config::piezo_gains(),
+                    piezo_period: 1.0 / PIEZO_HZ as f32,
+                    tau_ceiling: config::limits().tau_max,
+                    v_a_ceiling: config::limits().v_a_max,
+                }),
                 piezo_ticks: 0,
                 now: config::START_TICK,
                 // The boot move starts with the first motor period.

@@ -5,11 +5,12 @@
 //! protocol version); a telemetry subscription; the status (disarmed at boot); garbage, a
 //! corrupted frame and an oversized frame on the line, after which a ping is still answered; a
 //! move refused while disarmed; arm; moves refused whole with their reasons (out of reach, too
-//! fast); a trapezoid move, another one refused while it runs, its end awaited, and its tracking
-//! error within three times what the host simulation of the same move shows; a long move
+//! fast); a trapezoid move, another one and a parameter change refused while it runs, its end
+//! awaited, and its tracking error within three times what the host simulation of the same move
+//! shows; parameters read, written and refused at rest; a long move
 //! stopped on its way, which decelerates and holds short of its target; a move stopped by the
 //! link watchdog while the host is silent; disarm, estop; a clear
-//! refused with no fault latched; a command not implemented yet refused as such; and the
+//! refused with no fault latched; the fault recorder, not implemented yet, refused as such; and the
 //! telemetry of the whole session without a sequence gap. Prints one line per check; exit
 //! status 0 only if all pass.
 
@@ -18,7 +19,7 @@ use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
 use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
-use flexarm_link::msg::{Board, Channels, Command, Mode, Move, Refusal, Reply, Telemetry};
+use flexarm_link::msg::{Board, Channels, Command, Mode, Move, Param, Refusal, Reply, Telemetry};
 use flexarm_link::{Decoder, DeviceMsg, MAX_FRAME, Request, VERSION, encode};
 use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource, simulate};
 
@@ -320,10 +321,10 @@ fn run(port: u16) -> Result<(), String> {
         "another move while it runs is refused",
         format!("{r:?}"),
     )?;
-    let r = link.ask(Command::Set(flexarm_link::msg::Param::Kc, 10.0))?;
+    let r = link.ask(Command::Set(Param::Kc, 10.0))?;
     check(
-        r == Reply::Refused(Refusal::Unsupported),
-        "set, not implemented yet, is refused as such",
+        r == Reply::Refused(Refusal::Moving),
+        "a parameter change while it runs is refused",
         format!("{r:?}"),
     )?;
     link.await_mode(Mode::Armed)?;
@@ -341,6 +342,38 @@ fn run(port: u16) -> Result<(), String> {
             "max |θ − θ_d| {max_error:.2e} rad over {} frames; host {host:.2e} rad, bound 3× = {bound:.2e}",
             during.len()
         ),
+    )?;
+
+    // Parameters at rest: read, written, read back; refused out of range or unknown.
+    let k_c = link.ask(Command::Get(Param::Kc))?;
+    let r = link.ask(Command::Set(Param::Kc, 3.162))?;
+    let back = link.ask(Command::Get(Param::Kc))?;
+    check(
+        matches!(k_c, Reply::Value(v) if v > 0.0)
+            && r == Reply::Done
+            && back == Reply::Value(3.162),
+        "get and set k_c at rest",
+        format!("{k_c:?} → set {r:?} → {back:?}"),
+    )?;
+    for (p, v, why) in [
+        (Param::VaMax, 1e6, Refusal::OutOfRange),
+        (Param::Kp(0), -1.0, Refusal::OutOfRange),
+        (Param::CutoffHz, f32::NAN, Refusal::OutOfRange),
+        (Param::Kp(7), 1.0, Refusal::UnknownParam),
+    ] {
+        let r = link.ask(Command::Set(p, v))?;
+        check(
+            r == Reply::Refused(why),
+            "a bad parameter value is refused",
+            format!("{p:?} = {v}: {r:?}"),
+        )?;
+    }
+    let r = link.ask(Command::Set(Param::LinkTimeout, 5.0))?;
+    let back = link.ask(Command::Get(Param::LinkTimeout))?;
+    check(
+        r == Reply::Done && back == Reply::Value(5.0),
+        "the link watchdog's timeout",
+        format!("set {r:?} → {back:?} s"),
     )?;
 
     // A long move back, stopped once joint 1 has passed 0.75 rad: it decelerates and holds
@@ -430,6 +463,12 @@ fn run(port: u16) -> Result<(), String> {
     check(
         r == Reply::Refused(Refusal::CauseActive),
         "clear with no fault latched is refused",
+        format!("{r:?}"),
+    )?;
+    let r = link.ask(Command::Faults { from: 0 })?;
+    check(
+        r == Reply::Refused(Refusal::Unsupported),
+        "the fault recorder, not implemented yet, is refused as such",
         format!("{r:?}"),
     )?;
     let r = link.ask(Command::Unsubscribe)?;

@@ -1,0 +1,124 @@
+//! The parameters a host may read and change on a running controller (the link's `get`/`set`):
+//! the motor gains `K_p`, `Λ`, `D_Δ`, the piezo gain `k_c` and its filter corner, the torque and
+//! voltage limits. A change is validated with the rules of [`Controller::new`], against the
+//! board's ceilings and with the filter corner below the piezo loop's Nyquist rate, before
+//! anything is written, refused while a move runs, and written whole
+//! between two control steps (the caller holds the controller, so neither loop sees half of it).
+//! Units as in `crate::params` and `crate::control::piezo`.
+
+use crate::control::piezo::{PiezoGains, PiezoLaw};
+use crate::controller::Controller;
+use crate::drive::Mode;
+use crate::real::Real;
+use crate::{Vector2, Vector4};
+
+/// A tunable parameter; indices count from 0.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tunable {
+    /// `K_p` diagonal entry (0–3) [N·m·s/rad on the joints].
+    Kp(usize),
+    /// `Λ` diagonal entry (0–3) [1/s].
+    Lambda(usize),
+    /// `D_Δ` entry (0–1) [1/s].
+    DDelta(usize),
+    /// Piezo gain `k_c` [s].
+    Kc,
+    /// Piezo rate-filter corner [Hz].
+    CutoffHz,
+    /// Torque limit of a joint (0–1) [N·m].
+    TauMax(usize),
+    /// Piezo amplifier limit [V].
+    VaMax,
+}
+
+/// Why a parameter cannot be read or written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TuneError {
+    /// No such parameter or index.
+    Unknown,
+    /// The value is not finite, breaks a rule of [`Controller::new`] or exceeds the board's
+    /// ceiling.
+    OutOfRange,
+    /// Not while a move or a stop runs.
+    Moving,
+}
+
+/// The entry an index names, or [`TuneError::Unknown`].
+fn slot<X>(v: Option<&mut X>) -> Result<&mut X, TuneError> {
+    v.ok_or(TuneError::Unknown)
+}
+
+/// The tunable parameters' state besides the controller: the piezo gains (the law keeps them
+/// folded into its filter), its period, and the board's ceilings on the limits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tuning<T> {
+    /// The piezo gains in force.
+    pub piezo: PiezoGains<T>,
+    /// The piezo loop's period [s].
+    pub piezo_period: T,
+    /// Largest torque limit the drives allow [N·m].
+    pub tau_ceiling: Vector2<T>,
+    /// Largest voltage the board's piezo output stage delivers [V].
+    pub v_a_ceiling: T,
+}
+
+impl<T: Real> Tuning<T> {
+    /// The value of `p`.
+    pub fn get(&self, ctrl: &Controller<T>, p: Tunable) -> Result<T, TuneError> {
+        let g = &ctrl.motor.gains;
+        let l = &ctrl.motor.limits;
+        let at4 = |v: &Vector4<T>, i: usize| v.get(i).copied().ok_or(TuneError::Unknown);
+        let at2 = |v: &Vector2<T>, i: usize| v.get(i).copied().ok_or(TuneError::Unknown);
+        match p {
+            Tunable::Kp(i) => at4(&g.kp, i),
+            Tunable::Lambda(i) => at4(&g.lambda, i),
+            Tunable::DDelta(i) => at2(&g.d_delta, i),
+            Tunable::Kc => Ok(self.piezo.k_c),
+            Tunable::CutoffHz => Ok(self.piezo.cutoff_hz),
+            Tunable::TauMax(i) => at2(&l.tau_max, i),
+            Tunable::VaMax => Ok(l.v_a_max),
+        }
+    }
+
+    /// Sets `p` to `value` when the drive is in `mode` (anything but moving or stopping).
+    pub fn set(
+        &mut self,
+        ctrl: &mut Controller<T>,
+        mode: Mode,
+        p: Tunable,
+        value: T,
+    ) -> Result<(), TuneError> {
+        if matches!(mode, Mode::Moving | Mode::Stopping) {
+            return Err(TuneError::Moving);
+        }
+        if !value.finite() {
+            return Err(TuneError::OutOfRange);
+        }
+        let (mut gains, mut limits, mut piezo) = (ctrl.motor.gains, ctrl.motor.limits, self.piezo);
+        match p {
+            Tunable::Kp(i) => *slot(gains.kp.get_mut(i))? = value,
+            Tunable::Lambda(i) => *slot(gains.lambda.get_mut(i))? = value,
+            Tunable::DDelta(i) => *slot(gains.d_delta.get_mut(i))? = value,
+            Tunable::Kc => piezo.k_c = value,
+            Tunable::CutoffHz => piezo.cutoff_hz = value,
+            Tunable::TauMax(i) => *slot(limits.tau_max.get_mut(i))? = value,
+            Tunable::VaMax => limits.v_a_max = value,
+        }
+        let law = PiezoLaw::new(&piezo, self.piezo_period, limits.v_a_max);
+        // The board's ceilings, and a filter corner below the piezo loop's Nyquist rate.
+        let within = limits.tau_max.x <= self.tau_ceiling.x
+            && limits.tau_max.y <= self.tau_ceiling.y
+            && limits.v_a_max <= self.v_a_ceiling
+            && piezo.cutoff_hz * self.piezo_period < T::c(0.5);
+        if gains.validate().is_err() || limits.validate().is_err() || !law.is_valid() || !within {
+            return Err(TuneError::OutOfRange);
+        }
+        ctrl.motor.gains = gains;
+        ctrl.motor.limits = limits;
+        if piezo != self.piezo || p == Tunable::VaMax {
+            ctrl.piezo = law;
+            self.piezo = piezo;
+        }
+        Ok(())
+    }
+}
