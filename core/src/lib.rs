@@ -37,6 +37,7 @@ pub mod observer_gains;
 pub mod params;
 pub mod plant;
 pub mod real;
+pub mod recorder;
 pub mod simarm;
 pub mod supervisor;
 pub mod time;

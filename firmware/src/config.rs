@@ -104,6 +104,16 @@ pub const AMPLIFIER_SETTLE: u32 = MOTOR_HZ / 100;
 /// Consecutive motor periods the fault line must stay asserted (3 ms on hardware).
 pub const AMPLIFIER_DEBOUNCE: u32 = 3;
 
+/// Samples the fault recorder holds: 500 of 48 bytes (24 KB of RAM).
+pub const RECORDER_LEN: usize = 500;
+/// Motor periods per recorded sample: every second period on the hardware board (500 Hz, so
+/// the recorder holds the last second); every period under QEMU (100 Hz: the last 5 s).
+#[cfg(not(feature = "qemu"))]
+pub const RECORD_EVERY: u64 = 2;
+/// Motor periods per recorded sample (see the hardware board's).
+#[cfg(feature = "qemu")]
+pub const RECORD_EVERY: u64 = 1;
+
 /// Motor steps between two telemetry samples.
 pub const TELEMETRY_EVERY: u32 = MOTOR_HZ / 10;
 

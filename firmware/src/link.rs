@@ -5,8 +5,8 @@
 //!
 //! The commands act on the drive (`flexarm_core::drive`): arm, disarm, estop, trapezoid moves,
 //! stop, clear; `get`/`set` on the tunable parameters (`flexarm_core::tuning`) and the link
-//! watchdog's timeout. Not yet implemented, refused with [`Refusal::Unsupported`]: circles,
-//! waypoint lists, the fault recorder (docs/link.md).
+//! watchdog's timeout; the fault recorder's pages. Not yet implemented, refused with
+//! [`Refusal::Unsupported`]: circles and waypoint lists (docs/link.md).
 //!
 //! Hardware board: USART1 on PB6 (TX) and PB7 (RX) (the board configures the pins), 921 600
 //! baud, 8N1. QEMU board: the same USART, exposed by QEMU as a TCP socket
@@ -18,8 +18,8 @@ use flexarm_core::drive::{self, Drive, MoveRequest, Refused};
 use flexarm_core::observer::Measurement;
 use flexarm_core::tuning::{Tunable, TuneError, Tuning};
 use flexarm_link::msg::{
-    Board, Channels, Command, Hello, Load, MAX_CHANNELS, Mode, Move, Param, Refusal, Reply, Status,
-    Telemetry,
+    Board, Channels, Command, FaultPage, Hello, Load, MAX_CHANNELS, Mode, Move, Param,
+    RecordedSample, Refusal, Reply, SAMPLES_PER_PAGE, Status, Telemetry,
 };
 use flexarm_link::{DeviceMsg, Request, VERSION};
 use stm32f4::stm32f405::USART1;
@@ -152,6 +152,7 @@ impl Session {
         command: Command,
         ctrl: &mut Controller<f32>,
         drive: &mut Drive<f32>,
+        recorder: &mut crate::app::FaultRecorder,
         io: &Io,
     ) -> Reply {
         let done = |r: Result<(), Refused>| match r {
@@ -179,9 +180,40 @@ impl Session {
             }
             Command::Stop => done(drive.stop(ctrl, now)),
             Command::Clear => match drive.clear(ctrl, Some(&io.y), io.amplifier_fault) {
-                Ok(f) => Reply::Cleared(f as u8),
+                Ok(f) => {
+                    recorder.restart();
+                    Reply::Cleared(f as u8)
+                }
                 Err(e) => Reply::Refused(refusal(e)),
             },
+            Command::Faults { from } => {
+                let total = recorder.len();
+                let from = usize::from(from);
+                if from > total {
+                    return Reply::Refused(Refusal::NoRecord);
+                }
+                let mut samples = heapless::Vec::new();
+                for i in from..total.min(from + SAMPLES_PER_PAGE) {
+                    if let Some(s) = recorder.get(i) {
+                        let _ = samples.push(RecordedSample {
+                            tick: s.tick,
+                            theta: s.theta,
+                            error: s.error,
+                            delta: s.delta,
+                            tau: s.tau,
+                            v_f: s.v_f,
+                        });
+                    }
+                }
+                Reply::Faults(FaultPage {
+                    fault: recorder.fault().map(|f| f as u8),
+                    total: total as u16,
+                    from: from as u16,
+                    samples,
+                })
+            }
+            // Done by the caller on the QEMU link-session build, which owns the board.
+            Command::TestAmplifierFault(_) if cfg!(feature = "link-session") => Reply::Done,
             Command::Move(Move::Trapezoid {
                 target,
                 move_time,
@@ -238,7 +270,7 @@ impl Session {
             }
             Command::Move(Move::Circle { .. } | Move::Waypoints { .. })
             | Command::Waypoints { .. }
-            | Command::Faults { .. } => Reply::Refused(Refusal::Unsupported),
+            | Command::TestAmplifierFault(_) => Reply::Refused(Refusal::Unsupported),
         }
     }
 

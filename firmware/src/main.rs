@@ -93,10 +93,14 @@ mod app {
         finished: bool,
     }
 
+    /// The fault recorder's type (`config::RECORDER_LEN` samples).
+    pub type FaultRecorder = flexarm_core::recorder::Recorder<{ config::RECORDER_LEN }>;
+
     #[shared]
     struct Shared {
         ctrl: Controller<f32>,
         drive: Drive<f32>,
+        recorder: &'static mut FaultRecorder,
         board: BoardImpl,
         check: RunCheck,
     }
@@ -149,6 +153,7 @@ mod app {
     #[init(local = [
         queue: telemetry::Queue = telemetry::Queue::new(),
         rx_queue: crate::link::RxQueue = crate::link::RxQueue::new(),
+        recorder: FaultRecorder = FaultRecorder::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         // Before anything else (the crystal wait included): amplifiers disabled, commands safe.
@@ -293,6 +298,7 @@ mod app {
             Shared {
                 ctrl,
                 drive,
+                recorder: cx.local.recorder,
                 board,
                 check: RunCheck::default(),
             },
@@ -336,7 +342,7 @@ mod app {
 
     /// Telemetry and the command link: prints queued records and streams the subscribed ones;
     /// answers the link's requests; at the end of a QEMU run, checks the bounds and exits.
-    #[idle(local = [consumer, rx_consumer, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0, stops_seen: u32 = 0], shared = [check, ctrl, drive, board])]
+    #[idle(local = [consumer, rx_consumer, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0, stops_seen: u32 = 0], shared = [check, ctrl, drive, recorder, board])]
     fn idle(mut cx: idle::Context) -> ! {
         use crate::link;
         crate::stack::paint();
@@ -382,9 +388,17 @@ mod app {
                     ticks: *cx.local.last_tick,
                     dropped: TELEMETRY_DROPS.load(Relaxed),
                 };
+                #[cfg(feature = "link-session")]
+                if let flexarm_link::Command::TestAmplifierFault(on) = request.command {
+                    cx.shared.board.lock(|b| b.inject_amplifier_fault(on));
+                }
                 let session = &mut cx.local.session;
-                let reply = (&mut cx.shared.ctrl, &mut cx.shared.drive)
-                    .lock(|c, d| session.answer(request.command, c, d, &io));
+                let reply = (
+                    &mut cx.shared.ctrl,
+                    &mut cx.shared.drive,
+                    &mut cx.shared.recorder,
+                )
+                    .lock(|c, d, r| session.answer(request.command, c, d, r, &io));
                 link::send(
                     cx.local.serial,
                     &flexarm_link::DeviceMsg::Reply {
@@ -442,7 +456,7 @@ mod app {
     }
 
     /// Motor loop: encoders and film in, observer, Eq. 7, torques out.
-    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, telemetry_drops, fault_sent, amplifier, enabled], shared = [ctrl, drive, board, check])]
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, telemetry_drops, fault_sent, amplifier, enabled], shared = [ctrl, drive, recorder, board, check])]
     fn motor_loop(mut cx: motor_loop::Context) {
         let start = clock::now();
         cx.local.tim3.sr().write(|w| w.uif().clear_bit());
@@ -463,16 +477,17 @@ mod app {
         };
         // The fault line counts only while the amplifiers are enabled (debounced, after settling).
         let amp = cx.local.amplifier.update(*cx.local.enabled, amp_fault);
-        let (report, fault, q_hat) = (&mut cx.shared.ctrl, &mut cx.shared.drive).lock(|c, d| {
+        let (report, fault, q) = (&mut cx.shared.ctrl, &mut cx.shared.drive).lock(|c, d| {
             if let Err(f) = amp {
                 c.trip(f);
             }
             (
                 d.step(c, tick, Some(&Measurement { theta, v_f })),
                 c.fault(),
-                sample.then(|| c.estimate().0),
+                c.estimate().0,
             )
         });
+        let q_hat = sample.then_some(q);
         let cmd = report.command;
         cx.shared.board.lock(|b| {
             b.set_torques(cmd.tau);
@@ -480,6 +495,20 @@ mod app {
         });
         *cx.local.enabled = cmd.enable;
         MOTOR_HEARTBEAT.fetch_add(1, Relaxed);
+
+        // The fault recorder: every `RECORD_EVERY`-th period, and the period a fault latched.
+        if tick.0.is_multiple_of(config::RECORD_EVERY) || fault.is_some() {
+            let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);
+            let s = flexarm_core::recorder::Sample {
+                tick: tick.0,
+                theta: [theta.x, theta.y],
+                error,
+                delta: [q.z, q.w],
+                tau: [cmd.tau.x, cmd.tau.y],
+                v_f,
+            };
+            cx.shared.recorder.lock(|r| r.record(&s, fault));
+        }
 
         // Telemetry: periodic samples; the fault event the moment the latch is seen.
         let producer = cx.local.producer;

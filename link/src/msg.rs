@@ -72,6 +72,9 @@ pub enum Command {
     },
     /// Keeps the link watchdog fed without doing anything.
     Ping,
+    /// Test builds only (the QEMU `link-session` firmware): assert (`true`) or release the
+    /// simulated amplifiers' fault line. Every other build refuses it as `Unsupported`.
+    TestAmplifierFault(bool),
 }
 
 /// A move, in the core's joint frames.

@@ -82,6 +82,7 @@ fn command() -> impl Strategy<Value = Command> {
         Just(Command::Unsubscribe),
         any::<u16>().prop_map(|from| Command::Faults { from }),
         Just(Command::Ping),
+        any::<bool>().prop_map(Command::TestAmplifierFault),
     ]
 }
 

@@ -140,6 +140,14 @@ impl SimBoard {
     }
 }
 
+impl SimBoard {
+    /// Asserts (`true`) or releases the simulated amplifiers' fault line (the link-session
+    /// build's test command).
+    pub fn inject_amplifier_fault(&mut self, asserted: bool) {
+        self.fault_n = SimPin(!asserted);
+    }
+}
+
 impl Board for SimBoard {
     fn encoders(&mut self) -> Vector2<f32> {
         self.arm.encoders()

@@ -5,13 +5,13 @@
 //! protocol version); a telemetry subscription; the status (disarmed at boot); garbage, a
 //! corrupted frame and an oversized frame on the line, after which a ping is still answered; a
 //! move refused while disarmed; arm; moves refused whole with their reasons (out of reach, too
-//! fast); a trapezoid move, another one and a parameter change refused while it runs, its end
-//! awaited, and its tracking error within three times what the host simulation of the same move
-//! shows; parameters read, written and refused at rest; a long move
-//! stopped on its way, which decelerates and holds short of its target; a move stopped by the
-//! link watchdog while the host is silent; disarm, estop; a clear
-//! refused with no fault latched; the fault recorder, not implemented yet, refused as such; and the
-//! telemetry of the whole session without a sequence gap. Prints one line per check; exit
+//! fast); a trapezoid move, its end awaited, and its tracking error within three times what the
+//! host simulation of the same move shows; parameters read, written and refused at rest; a long
+//! move (another move and a parameter change refused while it runs) stopped on its way, which
+//! decelerates and holds short of its target; a move stopped by the link watchdog while the host
+//! is silent; disarm, estop; a clear refused with no fault latched; an amplifier fault injected
+//! (the test build's command) and read from the fault recorder, its clear refused until the line
+//! is released; and the telemetry of the whole session without a sequence gap. Prints one line per check; exit
 //! status 0 only if all pass.
 
 use std::io::{Read, Write};
@@ -152,6 +152,104 @@ fn simulated_max_error(target: [f32; 2], move_time: f32, ramp_time: f32) -> Resu
     });
     let (s, _) = simulate(&cfg, &traj, false).map_err(|e| e.to_string())?;
     Ok(s.max_error)
+}
+
+/// A fault injected on the amplifiers' fault line (the link-session build's test command): the
+/// drive faults, the recorder holds the samples before it, `clear` waits for the cause to go.
+fn fault_recorder(link: &mut Link) -> Result<(), String> {
+    const AMPLIFIER: u8 = 7; // flexarm_core::Fault::Amplifier
+    let r = link.ask(Command::Arm)?;
+    check(r == Reply::Done, "armed again", format!("{r:?}"))?;
+    // Let the arm come to rest in its hold first: the simulated joints have no friction, so an
+    // arm that faults while moving coasts out of its range (and then `clear` rightly refuses).
+    let start = Instant::now();
+    loop {
+        let n = link.telemetry.len();
+        let still = n > 3
+            && link.telemetry[n - 3..]
+                .windows(2)
+                .all(|w| (w[1].values[2] - w[0].values[2]).abs() < 1e-4);
+        if still {
+            break;
+        }
+        if start.elapsed() > Duration::from_secs(30) {
+            return Err("the arm never came to rest in its hold".into());
+        }
+        link.ask(Command::Ping)?;
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let r = link.ask(Command::TestAmplifierFault(true))?;
+    check(
+        r == Reply::Done,
+        "amplifier fault line asserted",
+        format!("{r:?}"),
+    )?;
+    let start = Instant::now();
+    let status = loop {
+        match link.ask(Command::Status)? {
+            Reply::Status(s) if s.fault.is_some() => break s,
+            Reply::Status(_) if start.elapsed() < Duration::from_secs(30) => {
+                std::thread::sleep(Duration::from_millis(2));
+            }
+            r => return Err(format!("no fault latched: {r:?}")),
+        }
+    };
+    check(
+        status.mode == Mode::Fault && status.fault == Some(AMPLIFIER),
+        "the fault latches",
+        format!("{:?}, fault {:?}", status.mode, status.fault),
+    )?;
+    // Read the recorder page by page.
+    let mut samples = Vec::new();
+    let (fault, total) = loop {
+        let from = samples.len() as u16;
+        match link.ask(Command::Faults { from })? {
+            Reply::Faults(p) => {
+                let done =
+                    p.samples.is_empty() || usize::from(p.total) <= samples.len() + p.samples.len();
+                samples.extend(p.samples.iter().copied());
+                if done {
+                    break (p.fault, usize::from(p.total));
+                }
+            }
+            r => return Err(format!("faults page {from}: {r:?}")),
+        }
+    };
+    let contiguous = samples.windows(2).all(|w| w[1].tick == w[0].tick + 1);
+    let seconds = samples.len() as f64 / 100.0;
+    check(
+        fault == Some(AMPLIFIER)
+            && samples.len() == total
+            && total >= 100
+            && contiguous
+            && status.ticks
+                >= samples
+                    .last()
+                    .map_or(u64::MAX, |s| s.tick)
+                    .saturating_sub(10),
+        "the fault recorder holds the samples before the fault",
+        format!(
+            "{total} samples ({seconds:.1} s at the QEMU board's 100 Hz), ticks {}..{}, contiguous",
+            samples.first().map_or(0, |s| s.tick),
+            samples.last().map_or(0, |s| s.tick)
+        ),
+    )?;
+    let r = link.ask(Command::Clear)?;
+    check(
+        r == Reply::Refused(Refusal::CauseActive),
+        "clear while the fault line is still asserted is refused",
+        format!("{r:?}"),
+    )?;
+    link.ask(Command::TestAmplifierFault(false))?;
+    let r = link.ask(Command::Clear)?;
+    let after = link.ask(Command::Faults { from: 0 })?;
+    check(
+        r == Reply::Cleared(AMPLIFIER)
+            && link.mode()? == Mode::Disarmed
+            && matches!(after, Reply::Faults(ref p) if p.fault.is_none()),
+        "cleared once the line is released, disarmed, the recorder recording again",
+        format!("{r:?}"),
+    )
 }
 
 fn connect(port: u16) -> Result<TcpStream, String> {
@@ -315,18 +413,6 @@ fn run(port: u16) -> Result<(), String> {
         "a trapezoid move starts",
         format!("{r:?}"),
     )?;
-    let r = link.ask(trapezoid([0.0, 0.0], 2.0, 0.5))?;
-    check(
-        r == Reply::Refused(Refusal::Moving),
-        "another move while it runs is refused",
-        format!("{r:?}"),
-    )?;
-    let r = link.ask(Command::Set(Param::Kc, 10.0))?;
-    check(
-        r == Reply::Refused(Refusal::Moving),
-        "a parameter change while it runs is refused",
-        format!("{r:?}"),
-    )?;
     link.await_mode(Mode::Armed)?;
     let during = &link.telemetry[first..];
     let max_error = during
@@ -382,6 +468,18 @@ fn run(port: u16) -> Result<(), String> {
     check(
         r == Reply::Done,
         "an 8 s move back starts",
+        format!("{r:?}"),
+    )?;
+    let r = link.ask(trapezoid([0.0, 0.0], 2.0, 0.5))?;
+    check(
+        r == Reply::Refused(Refusal::Moving),
+        "another move while it runs is refused",
+        format!("{r:?}"),
+    )?;
+    let r = link.ask(Command::Set(Param::Kc, 10.0))?;
+    check(
+        r == Reply::Refused(Refusal::Moving),
+        "a parameter change while it runs is refused",
         format!("{r:?}"),
     )?;
     let theta1 = |l: &Link| l.telemetry.last().map_or(1.0, |f| f.values[2]);
@@ -465,12 +563,7 @@ fn run(port: u16) -> Result<(), String> {
         "clear with no fault latched is refused",
         format!("{r:?}"),
     )?;
-    let r = link.ask(Command::Faults { from: 0 })?;
-    check(
-        r == Reply::Refused(Refusal::Unsupported),
-        "the fault recorder, not implemented yet, is refused as such",
-        format!("{r:?}"),
-    )?;
+    fault_recorder(&mut link)?;
     let r = link.ask(Command::Unsubscribe)?;
     check(r == Reply::Done, "unsubscribed", format!("{r:?}"))?;
     let t = &link.telemetry;
