@@ -1,4 +1,4 @@
-//! The command link's firmware side (issue 15, first slice): USART1 carries the frames of
+//! The command link's firmware side: USART1 carries the frames of
 //! `flexarm-link`. The receive interrupt only moves bytes from the data register into a queue;
 //! the idle task decodes them, answers, and streams the telemetry the host subscribed to. Both
 //! run below the control loops, so nothing on the link can delay them.
