@@ -114,6 +114,9 @@ impl InputPin for SimPin {
     }
 }
 
+/// Time constant of the joints' brakes while the amplifiers are off [s].
+const BRAKE_TAU: f32 = 0.05;
+
 /// The simulated arm and its lines.
 pub struct SimBoard {
     /// The plant and its sensors.
@@ -180,6 +183,14 @@ impl Board for SimBoard {
     fn tick(&mut self) {
         if !self.arm.step(self.dt) {
             self.diverged = true;
+        }
+        // With the amplifiers off the joints brake, as geared drives with holding brakes do:
+        // their speeds decay with a 50 ms time constant, so a disarmed or faulted arm comes to
+        // rest instead of coasting forever on the model's frictionless joints.
+        if !self.arm.enabled() {
+            let keep = 1.0 - self.dt / BRAKE_TAU;
+            self.arm.x.qd.x *= keep;
+            self.arm.x.qd.y *= keep;
         }
     }
 }

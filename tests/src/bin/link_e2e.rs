@@ -160,15 +160,15 @@ fn fault_recorder(link: &mut Link) -> Result<(), String> {
     const AMPLIFIER: u8 = 7; // flexarm_core::Fault::Amplifier
     let r = link.ask(Command::Arm)?;
     check(r == Reply::Done, "armed again", format!("{r:?}"))?;
-    // Let the arm come to rest in its hold first: the simulated joints have no friction, so an
-    // arm that faults while moving coasts out of its range (and then `clear` rightly refuses).
+    // Let the arm come to rest in its hold first, so that the fault finds it still.
     let start = Instant::now();
     loop {
         let n = link.telemetry.len();
         let still = n > 3
-            && link.telemetry[n - 3..]
-                .windows(2)
-                .all(|w| (w[1].values[2] - w[0].values[2]).abs() < 1e-4);
+            && link.telemetry[n - 3..].windows(2).all(|w| {
+                (w[1].values[2] - w[0].values[2]).abs() < 1e-4
+                    && (w[1].values[3] - w[0].values[3]).abs() < 1e-4
+            });
         if still {
             break;
         }
