@@ -14,20 +14,23 @@
 //! verdict runs' boot move) is not watched.
 //!
 //! Every move is validated whole before it starts and refused with a reason, never applied in
-//! part: its timing, its end within the joints' ranges, its peak speed and acceleration within
+//! part: its timing, its poses within the joints' ranges, its peak speed and acceleration within
 //! [`MoveLimits`], and its peak torque, estimated as `|B_θθ| q̈_max` plus the largest
-//! centrifugal term `|h| v_max²` at the start and end poses, within the torque limits with a
-//! margin for the feedback ([`MoveLimits::torque_share`]). Times are move-local [s] from the
+//! centrifugal term `|h| v_max²`, within the torque limits with a margin for the feedback
+//! ([`MoveLimits::torque_share`]). A trapezoid is checked in closed form at its start and end
+//! poses; a circle of the tip, which must start where the tip is held, at 200 points of its
+//! revolution. Times are move-local [s] from the
 //! drive's [`MoveClock`] (the integer tick base of `crate::time`); angles in rad, in the core's
 //! joint frames.
 
 use crate::Vector2;
 use crate::controller::{Controller, MotorReport};
 use crate::fault::Fault;
+use crate::kinematics::{Elbow, Planar2};
 use crate::observer::Measurement;
 use crate::real::Real;
 use crate::time::{MoveClock, Ticks};
-use crate::trajectory::{JointTrajectory, Profile, Trapezoid};
+use crate::trajectory::{Circle, JointTrajectory, Profile, Trapezoid};
 
 /// The drive's mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -81,15 +84,17 @@ pub struct MoveLimits<T> {
 
 impl<T: Real> Default for MoveLimits<T> {
     /// 3 rad/s and 10 rad/s² per joint (the paper's trapezoid reaches 1.05 rad/s and
-    /// 2.1 rad/s²), ends inside θ1 ∈ [−3, 3], θ2 ∈ [−2.6, 2.6] rad (0.14 and 0.2 rad inside the
-    /// sensor ranges that trip a fault), half the torque limit.
+    /// 2.1 rad/s²), poses inside θ1 ∈ [−3, 3], θ2 ∈ [−2.7, 2.7] rad (0.14 and 0.1 rad inside
+    /// the sensor ranges that trip a fault; the paper's circle reaches θ2 = 2.69), three
+    /// quarters of the torque limit for the feed-forward estimate (it adds magnitudes, so it
+    /// over-estimates: 5.5 N·m for the paper's circle, which needs 3.9 N·m in closed loop).
     fn default() -> Self {
         Self {
             speed_max: Vector2::new(T::c(3.0), T::c(3.0)),
             accel_max: Vector2::new(T::c(10.0), T::c(10.0)),
-            theta_max: Vector2::new(T::c(3.0), T::c(2.6)),
-            theta_min: Vector2::new(T::c(-3.0), T::c(-2.6)),
-            torque_share: T::c(0.5),
+            theta_max: Vector2::new(T::c(3.0), T::c(2.7)),
+            theta_min: Vector2::new(T::c(-3.0), T::c(-2.7)),
+            torque_share: T::c(0.75),
         }
     }
 }
@@ -107,7 +112,35 @@ pub enum MoveRequest<T> {
         /// Ramp at each end [s].
         ramp_time: T,
     },
+    /// One revolution of the tip around `centre` [m] of radius `radius` [m], starting where the
+    /// tip is (the held pose must lie on the circle, within 1 mm), in `period` [s] with
+    /// `ramp_time` [s] of constant phase acceleration at each end, on the held pose's elbow.
+    Circle {
+        /// Centre in the base frame [m].
+        centre: Vector2<T>,
+        /// Radius [m].
+        radius: T,
+        /// One revolution [s].
+        period: T,
+        /// Ramp at each end [s].
+        ramp_time: T,
+        /// Direction.
+        clockwise: bool,
+    },
 }
+
+impl<T: Real> MoveRequest<T> {
+    /// How long the move lasts [s].
+    pub fn duration(&self) -> T {
+        match *self {
+            Self::Trapezoid { move_time, .. } => move_time,
+            Self::Circle { period, .. } => period,
+        }
+    }
+}
+
+/// Points at which a circle's speed, acceleration and torque are checked.
+const CIRCLE_CHECKS: usize = 200;
 
 /// The drive (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -262,11 +295,11 @@ impl<T: Real> Drive<T> {
         }
         let from = ctrl.trajectory.sample(self.time(now)).q;
         let trajectory = self.validate(ctrl, from, request)?;
-        let MoveRequest::Trapezoid { move_time, .. } = *request;
+        let duration = request.duration();
         ctrl.trajectory = trajectory;
-        self.restart(now, T::zero(), move_time);
+        self.restart(now, T::zero(), duration);
         self.mode = Mode::Moving;
-        Ok(move_time)
+        Ok(duration)
     }
 
     /// The trajectory of `request` from `from` [rad], or why it is refused.
@@ -276,11 +309,20 @@ impl<T: Real> Drive<T> {
         from: Vector2<T>,
         request: &MoveRequest<T>,
     ) -> Result<JointTrajectory<T>, Refused> {
-        let MoveRequest::Trapezoid {
-            target,
-            move_time,
-            ramp_time,
-        } = *request;
+        let (target, move_time, ramp_time) = match *request {
+            MoveRequest::Trapezoid {
+                target,
+                move_time,
+                ramp_time,
+            } => (target, move_time, ramp_time),
+            MoveRequest::Circle {
+                centre,
+                radius,
+                period,
+                ramp_time,
+                clockwise,
+            } => return self.circle(ctrl, from, centre, radius, period, ramp_time, clockwise),
+        };
         let l = &self.limits;
         let finite = [target.x, target.y, move_time, ramp_time]
             .iter()
@@ -304,30 +346,118 @@ impl<T: Real> Drive<T> {
         {
             return Err(Refused::TooFast);
         }
-        // Feed-forward torque at the start and end poses: |B_θθ| a + |h| v² (the rigid part
-        // of B and the centrifugal term of the joints), within a share of the limit.
-        let tau_max = ctrl.motor.limits.tau_max;
-        // |∂h/∂θ2| ≤ a1 m2 a2/2 at δ = 0: the centrifugal coefficient's bound.
-        let p = &ctrl.motor.model.params;
-        let h = p.a1 * p.m2 * p.a2 * T::c(0.5);
+        // The peak speed and acceleration at the start and end poses.
         for pose in [from, target] {
-            let q = crate::Vector4::new(pose.x, pose.y, T::zero(), T::zero());
-            let b = ctrl.motor.model.inertia(&q);
-            let (b11, b12, b22) = (b.m11.abs(), b.m12.abs(), b.m22.abs());
-            let tau = Vector2::new(
-                b11 * a.x + b12 * a.y + h * (v.y * v.y + T::c(2.0) * v.x * v.y),
-                b12 * a.x + b22 * a.y + h * v.x * v.x,
-            );
-            let within = tau.x <= l.torque_share * tau_max.x && tau.y <= l.torque_share * tau_max.y;
-            if !within {
-                return Err(Refused::TooFast);
-            }
+            self.torque_within(ctrl, pose, v, a)?;
         }
         Ok(JointTrajectory::Trapezoid(Trapezoid {
             start: from,
             amplitude,
             profile,
         }))
+    }
+
+    /// The feed-forward torque at `pose` for joint speeds `v` and accelerations `a` (their
+    /// magnitudes): `|B_θθ| a + |h| v²` (the rigid part of `B` and the joints' centrifugal
+    /// term, `|∂h/∂θ2| ≤ a1 m2 a2/2` at δ = 0), within a share of the torque limit.
+    fn torque_within(
+        &self,
+        ctrl: &Controller<T>,
+        pose: Vector2<T>,
+        v: Vector2<T>,
+        a: Vector2<T>,
+    ) -> Result<(), Refused> {
+        let l = &self.limits;
+        let tau_max = ctrl.motor.limits.tau_max;
+        let p = &ctrl.motor.model.params;
+        let h = p.a1 * p.m2 * p.a2 * T::c(0.5);
+        let q = crate::Vector4::new(pose.x, pose.y, T::zero(), T::zero());
+        let b = ctrl.motor.model.inertia(&q);
+        let (b11, b12, b22) = (b.m11.abs(), b.m12.abs(), b.m22.abs());
+        let tau = Vector2::new(
+            b11 * a.x + b12 * a.y + h * (v.y * v.y + T::c(2.0) * v.x * v.y),
+            b12 * a.x + b22 * a.y + h * v.x * v.x,
+        );
+        if tau.x <= l.torque_share * tau_max.x && tau.y <= l.torque_share * tau_max.y {
+            Ok(())
+        } else {
+            Err(Refused::TooFast)
+        }
+    }
+
+    /// The circle of [`MoveRequest::Circle`] from the held pose `from`, checked at
+    /// [`CIRCLE_CHECKS`] points of its revolution: every joint inside the move limits' range,
+    /// speed and acceleration within them, the feed-forward torque within its share.
+    #[allow(clippy::too_many_arguments)]
+    fn circle(
+        &self,
+        ctrl: &Controller<T>,
+        from: Vector2<T>,
+        centre: Vector2<T>,
+        radius: T,
+        period: T,
+        ramp_time: T,
+        clockwise: bool,
+    ) -> Result<JointTrajectory<T>, Refused> {
+        let finite = [centre.x, centre.y, radius, period, ramp_time]
+            .iter()
+            .all(|x| x.finite());
+        if !finite || radius <= T::zero() {
+            return Err(Refused::OutOfRange);
+        }
+        let profile = Profile::new(period, ramp_time).map_err(|_| Refused::OutOfRange)?;
+        let p = &ctrl.motor.model.params;
+        let kin = Planar2 { a1: p.a1, a2: p.a2 };
+        // It starts where the tip is held.
+        let rel = kin.forward(&from) - centre;
+        if (rel.norm() - radius).abs() > T::c(1e-3) {
+            return Err(Refused::Unreachable);
+        }
+        let elbow = if from.y < T::zero() {
+            Elbow::Negative
+        } else {
+            Elbow::Positive
+        };
+        let phase = rel.y.latan2(rel.x);
+        let circle = Circle::new(
+            kin,
+            centre,
+            radius,
+            phase,
+            clockwise,
+            profile,
+            elbow,
+            T::c(0.05),
+        )
+        .map_err(|_| Refused::Unreachable)?;
+        // The inverse kinematics' start must be the held pose (not, say, θ1 ± 2π).
+        if (circle.start - from).abs().max() > T::c(1e-3) {
+            return Err(Refused::Unreachable);
+        }
+        let l = &self.limits;
+        let inside = |q: Vector2<T>| {
+            q.x >= l.theta_min.x
+                && q.x <= l.theta_max.x
+                && q.y >= l.theta_min.y
+                && q.y <= l.theta_max.y
+        };
+        for k in 0..=CIRCLE_CHECKS {
+            let t = period * T::c(k as f64 / CIRCLE_CHECKS as f64);
+            let r = circle.sample(t);
+            if !inside(r.q) {
+                return Err(Refused::Unreachable);
+            }
+            let (v, a) = (r.qd.abs(), r.qdd.abs());
+            if v.x > l.speed_max.x
+                || v.y > l.speed_max.y
+                || a.x > l.accel_max.x
+                || a.y > l.accel_max.y
+            {
+                return Err(Refused::TooFast);
+            }
+            self.torque_within(ctrl, r.q, v, a)?;
+        }
+        Ok(JointTrajectory::Circle(circle))
     }
 
     /// A controlled stop (IEC 60204-1 category 1): from the reference's pose and speed

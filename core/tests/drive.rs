@@ -167,7 +167,7 @@ fn a_move_is_validated_whole_and_refused_with_its_reason() {
         (trapezoid([0.5, 0.0], 2.0, 1.5), Refused::OutOfRange),
         (trapezoid([0.5, 0.0], -1.0, 0.5), Refused::OutOfRange),
         (trapezoid([3.5, 0.0], 4.0, 1.0), Refused::Unreachable),
-        (trapezoid([0.0, -2.7], 4.0, 1.0), Refused::Unreachable),
+        (trapezoid([0.0, -2.75], 4.0, 1.0), Refused::Unreachable),
         // 2 rad in 0.5 s: 5.3 rad/s.
         (trapezoid([2.0, 0.0], 0.5, 0.125), Refused::TooFast),
         // 1 rad, 0.05 s ramps: 1.05 rad/s but 21 rad/s².
@@ -394,4 +394,53 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
     assert_eq!(b.ctrl.motor.gains.kp.x, 50.0);
     b.run(0.5);
     assert!(b.ctrl.fault().is_none() && (b.theta().x - 0.3).abs() < 2e-3);
+}
+
+#[test]
+fn a_circle_starts_where_the_tip_is_held_and_is_refused_otherwise() {
+    use flexarm_core::trajectory::Circle;
+    let start = Circle::<f32>::paper(0.3, 0.7).unwrap().start;
+    let mut b = Bench::new(start);
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.run(0.2);
+    let circle = |centre: [f32; 2], radius: f32, period: f32| MoveRequest::Circle {
+        centre: Vector2::new(centre[0], centre[1]),
+        radius,
+        period,
+        ramp_time: 0.5,
+        clockwise: true,
+    };
+    let held = b.ctrl.trajectory;
+    for (req, why) in [
+        // The tip is not on this circle.
+        (circle([0.6, 0.0], 0.2, 4.0), Refused::Unreachable),
+        // On it, but the circle leaves the reachable annulus.
+        (
+            circle([0.65, 0.2], 0.2 * 2f32.sqrt(), 4.0),
+            Refused::Unreachable,
+        ),
+        // One revolution in 0.8 s: too fast.
+        (circle([0.65, 0.0], 0.2, 1.0), Refused::TooFast),
+        (circle([0.65, 0.0], 0.2, f32::NAN), Refused::OutOfRange),
+        (circle([0.65, 0.0], -0.2, 4.0), Refused::OutOfRange),
+    ] {
+        assert_eq!(b.drive.start(&mut b.ctrl, b.now, &req), Err(why), "{req:?}");
+        assert_eq!(b.ctrl.trajectory, held, "nothing applied");
+    }
+    assert_eq!(
+        b.drive
+            .start(&mut b.ctrl, b.now, &circle([0.65, 0.0], 0.2, 4.0)),
+        Ok(4.0)
+    );
+    let mut worst: f32 = 0.0;
+    for _ in 0..4100 {
+        b.period();
+        let t = b.drive.time(b.now);
+        let target = b.ctrl.trajectory.sample(t).q;
+        worst = worst.max((b.theta() - target).abs().max());
+    }
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Armed);
+    println!("circle: largest |θ − θ_d| {worst:.2e} rad");
+    assert!(worst < 2e-3, "{worst}");
+    assert!((b.theta() - start).abs().max() < 2e-3, "back at its start");
 }

@@ -3,10 +3,10 @@
 //! the idle task decodes them, answers, and streams the telemetry the host subscribed to. Both
 //! run below the control loops, so nothing on the link can delay them.
 //!
-//! The commands act on the drive (`flexarm_core::drive`): arm, disarm, estop, trapezoid moves,
-//! stop, clear; `get`/`set` on the tunable parameters (`flexarm_core::tuning`) and the link
+//! The commands act on the drive (`flexarm_core::drive`): arm, disarm, estop, trapezoid and
+//! circle moves, stop, clear; `get`/`set` on the tunable parameters (`flexarm_core::tuning`) and the link
 //! watchdog's timeout; the fault recorder's pages. Not yet implemented, refused with
-//! [`Refusal::Unsupported`]: circles and waypoint lists (docs/link.md).
+//! [`Refusal::Unsupported`]: waypoint lists (docs/link.md).
 //!
 //! Hardware board: USART1 on PB6 (TX) and PB7 (RX) (the board configures the pins), 921 600
 //! baud, 8N1. QEMU board: the same USART, exposed by QEMU as a TCP socket
@@ -226,6 +226,22 @@ impl Session {
                 };
                 done(drive.start(ctrl, now, &request).map(|_| ()))
             }
+            Command::Move(Move::Circle {
+                centre,
+                radius,
+                period,
+                ramp_time,
+                clockwise,
+            }) => {
+                let request = MoveRequest::Circle {
+                    centre: Vector2::new(centre[0], centre[1]),
+                    radius,
+                    period,
+                    ramp_time,
+                    clockwise,
+                };
+                done(drive.start(ctrl, now, &request).map(|_| ()))
+            }
             Command::Subscribe {
                 decimation,
                 channels,
@@ -268,7 +284,7 @@ impl Session {
                     Err(e) => Reply::Refused(tune_refusal(e)),
                 }
             }
-            Command::Move(Move::Circle { .. } | Move::Waypoints { .. })
+            Command::Move(Move::Waypoints { .. })
             | Command::Waypoints { .. }
             | Command::TestAmplifierFault(_) => Reply::Refused(Refusal::Unsupported),
         }

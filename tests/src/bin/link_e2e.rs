@@ -9,7 +9,8 @@
 //! host simulation of the same move shows; parameters read, written and refused at rest; a long
 //! move (another move and a parameter change refused while it runs) stopped on its way, which
 //! decelerates and holds short of its target; a move stopped by the link watchdog while the host
-//! is silent; disarm, estop; a clear refused with no fault latched; an amplifier fault injected
+//! is silent; the paper's circle, refused where the tip is not on it, then run from its start
+//! within three times the host simulation's error; disarm, estop; a clear refused with no fault latched; an amplifier fault injected
 //! (the test build's command) and read from the fault recorder, its clear refused until the line
 //! is released; and the telemetry of the whole session without a sequence gap. Prints one line per check; exit
 //! status 0 only if all pass.
@@ -18,7 +19,7 @@ use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
-use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
+use flexarm_core::trajectory::{Circle, JointTrajectory, Profile, Trapezoid};
 use flexarm_link::msg::{Board, Channels, Command, Mode, Move, Param, Refusal, Reply, Telemetry};
 use flexarm_link::{Decoder, DeviceMsg, MAX_FRAME, Request, VERSION, encode};
 use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource, simulate};
@@ -124,12 +125,31 @@ fn trapezoid(target: [f32; 2], move_time: f32, ramp_time: f32) -> Command {
     })
 }
 
-/// The largest |θ − θ_d| of the same move from rest at 0 on the host: the QEMU board's rates
-/// (motor 100 Hz, piezo 1 kHz, plant step 1 ms), its sensors (16384-count encoders, 12-bit
-/// film ADC, no noise or delay) and the firmware's controller with its observer.
+/// The largest |θ − θ_d| of the trapezoid from rest at 0 on the host ([`simulated_error`]).
 fn simulated_max_error(target: [f32; 2], move_time: f32, ramp_time: f32) -> Result<f64, String> {
+    let traj = JointTrajectory::Trapezoid(Trapezoid {
+        start: nalgebra::Vector2::zeros(),
+        amplitude: nalgebra::Vector2::new(target[0], target[1]),
+        profile: Profile::new(move_time, ramp_time).map_err(|e| e.to_string())?,
+    });
+    simulated_error(&traj, 30.0)
+}
+
+/// The largest |θ − θ_d| of `traj` from rest at its start on the host, with the piezo gain
+/// `k_c` [s]: the QEMU board's rates (motor 100 Hz, piezo 1 kHz, plant step 1 ms), its sensors
+/// (16384-count encoders, 12-bit film ADC, no noise or delay) and the firmware's controller with
+/// its observer.
+fn simulated_error(traj: &JointTrajectory<f32>, k_c: f32) -> Result<f64, String> {
+    let move_time = match traj {
+        JointTrajectory::Trapezoid(t) => t.profile.duration(),
+        JointTrajectory::Circle(c) => c.profile.duration(),
+        JointTrajectory::Hold(_) => 1.0,
+    };
     let cfg = SimConfig {
-        piezo: Some(Default::default()),
+        piezo: Some(flexarm_core::control::piezo::PiezoGains {
+            k_c,
+            ..Default::default()
+        }),
         state: StateSource::Observer,
         sensors: Sensors {
             encoder_counts: Some(16384.0),
@@ -145,13 +165,59 @@ fn simulated_max_error(target: [f32; 2], move_time: f32, ramp_time: f32) -> Resu
         tail_window: 1.0,
         ..SimConfig::default()
     };
-    let traj = JointTrajectory::Trapezoid(Trapezoid {
-        start: nalgebra::Vector2::zeros(),
-        amplitude: nalgebra::Vector2::new(target[0], target[1]),
-        profile: Profile::new(move_time, ramp_time).map_err(|e| e.to_string())?,
-    });
-    let (s, _) = simulate(&cfg, &traj, false).map_err(|e| e.to_string())?;
+    let (s, _) = simulate(&cfg, traj, false).map_err(|e| e.to_string())?;
     Ok(s.max_error)
+}
+
+/// The paper's circle (Eq. 36 made reachable) over the link: refused where the tip is not on
+/// it, then run from its start pose, tracked within three times the host simulation's error.
+fn circle(link: &mut Link) -> Result<(), String> {
+    let c = Circle::<f32>::paper(0.3, 0.7).map_err(|e| e.to_string())?;
+    let circle = |centre: [f32; 2]| {
+        Command::Move(Move::Circle {
+            centre,
+            radius: 0.2,
+            period: 4.0,
+            ramp_time: 0.5,
+            clockwise: true,
+        })
+    };
+    let r = link.ask(circle([0.65, 0.0]))?;
+    check(
+        r == Reply::Refused(Refusal::Unreachable),
+        "a circle that does not pass through the held tip is refused",
+        format!("{r:?}"),
+    )?;
+    let r = link.ask(trapezoid([c.start.x, c.start.y], 4.0, 1.0))?;
+    check(
+        r == Reply::Done,
+        "a move to the circle's start",
+        format!("{r:?}"),
+    )?;
+    link.await_mode(Mode::Armed)?;
+    let first = link.telemetry.len();
+    let r = link.ask(circle([0.65, 0.0]))?;
+    check(
+        r == Reply::Done,
+        "the paper's circle starts",
+        format!("{r:?}"),
+    )?;
+    link.await_mode(Mode::Armed)?;
+    let during = &link.telemetry[first..];
+    let max_error = during
+        .iter()
+        .flat_map(|f| f.values.iter().take(2))
+        .fold(0.0f32, |m, e| m.max(e.abs()));
+    let host = simulated_error(&JointTrajectory::Circle(c), 3.162)?;
+    let bound = 3.0 * host as f32;
+    check(
+        during.len() >= 35 && max_error <= bound,
+        "the circle's tracking error against the host simulation of the same circle",
+        format!(
+            "max |θ − θ_d| {max_error:.2e} rad over {} frames; host {host:.2e} rad, bound 3× = {bound:.2e}",
+            during.len()
+        ),
+    )
 }
 
 /// A fault injected on the amplifiers' fault line (the link-session build's test command): the
@@ -543,6 +609,7 @@ fn run(port: u16) -> Result<(), String> {
             s.mode, s.link_stops, reached[0], reached[1]
         ),
     )?;
+    circle(&mut link)?;
     let r = link.ask(trapezoid([0.0, 0.0], 4.0, 1.0))?;
     check(r == Reply::Done, "a new move after it", format!("{r:?}"))?;
     let r = link.ask(Command::Disarm)?;
