@@ -87,7 +87,8 @@ impl<T: Real> Default for MoveLimits<T> {
     /// 2.1 rad/s²), poses inside θ1 ∈ [−3, 3], θ2 ∈ [−2.7, 2.7] rad (0.14 and 0.1 rad inside
     /// the sensor ranges that trip a fault; the paper's circle reaches θ2 = 2.69), three
     /// quarters of the torque limit for the feed-forward estimate (it adds magnitudes, so it
-    /// over-estimates: 5.5 N·m for the paper's circle, which needs 3.9 N·m in closed loop).
+    /// over-estimates: half the limit refused the paper's circle, which peaks at 3.9 N·m in
+    /// closed loop, `cargo sim paper`).
     fn default() -> Self {
         Self {
             speed_max: Vector2::new(T::c(3.0), T::c(3.0)),
