@@ -266,10 +266,10 @@ impl<T: Real> Controller<T> {
         self.report(None)
     }
 
-    fn run_idle(&mut self, y: Option<&Measurement<T>>) -> Option<()> {
-        if self.latch.fault().is_some() {
-            return None;
-        }
+    /// The motor period's sample: staleness, the plausibility checks, the observer's
+    /// correction. `None` after latching the fault a check found.
+    #[inline(always)]
+    fn take(&mut self, y: Option<&Measurement<T>>) -> Option<()> {
         let stale = self.staleness.tick(y.is_some());
         self.check(stale)?;
         if let Some(y) = y {
@@ -277,9 +277,18 @@ impl<T: Real> Controller<T> {
                 .sensors
                 .check(y, self.previous.as_ref(), self.motor_period);
             self.check(checked)?;
+            // The range check has rejected NaN and ±∞.
             self.observer.correct_finite(y);
             self.previous = Some(y.theta);
         }
+        Some(())
+    }
+
+    fn run_idle(&mut self, y: Option<&Measurement<T>>) -> Option<()> {
+        if self.latch.fault().is_some() {
+            return None;
+        }
+        self.take(y)?;
         let terms = self.motor.model.terms(&self.observer.state().0);
         let predicted = self
             .observer
@@ -330,17 +339,7 @@ impl<T: Real> Controller<T> {
             self.trip(Fault::NonFinite);
             return None;
         }
-        let stale = self.staleness.tick(y.is_some());
-        self.check(stale)?;
-        if let Some(y) = y {
-            let checked = self
-                .sensors
-                .check(y, self.previous.as_ref(), self.motor_period);
-            self.check(checked)?;
-            // The range check has rejected NaN and ±∞.
-            self.observer.correct_finite(y);
-            self.previous = Some(y.theta);
-        }
+        self.take(y)?;
         let (q_hat, qd_hat) = self.observer.state();
         // One set of B(q) terms serves the law and the observer's prediction when the law runs
         // on the estimate.

@@ -124,7 +124,6 @@ mod app {
         last_heartbeat: u32,
         supervisor_ticks: u32,
         reported_fault: bool,
-        telemetry_drops: u32,
         fault_sent: bool,
         amplifier: AmplifierMonitor,
         enabled: bool,
@@ -326,7 +325,6 @@ mod app {
                 last_heartbeat: 0,
                 supervisor_ticks: 0,
                 reported_fault: false,
-                telemetry_drops: 0,
                 fault_sent: false,
                 amplifier: AmplifierMonitor::new(
                     config::AMPLIFIER_SETTLE,
@@ -456,7 +454,7 @@ mod app {
     }
 
     /// Motor loop: encoders and film in, observer, Eq. 7, torques out.
-    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, telemetry_drops, fault_sent, amplifier, enabled], shared = [ctrl, drive, recorder, board, check])]
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, fault_sent, amplifier, enabled], shared = [ctrl, drive, recorder, board, check])]
     fn motor_loop(mut cx: motor_loop::Context) {
         let start = clock::now();
         cx.local.tim3.sr().write(|w| w.uif().clear_bit());
@@ -469,7 +467,7 @@ mod app {
             .shared
             .board
             .lock(|b| (b.encoders(), b.latest_film_voltage(), b.amplifier_fault()));
-        // The estimate is read only for the telemetry samples.
+        // A telemetry sample this period?
         let sample = *cx.local.telemetry_countdown == 0;
         *cx.local.telemetry_countdown = match *cx.local.telemetry_countdown {
             0 => config::TELEMETRY_EVERY - 1,
@@ -487,8 +485,8 @@ mod app {
                 c.estimate().0,
             )
         });
-        let q_hat = sample.then_some(q);
         let cmd = report.command;
+        let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);
         cx.shared.board.lock(|b| {
             b.set_torques(cmd.tau);
             b.set_enable(cmd.enable);
@@ -498,7 +496,6 @@ mod app {
 
         // The fault recorder: every `RECORD_EVERY`-th period, and the period a fault latched.
         if tick.0.is_multiple_of(config::RECORD_EVERY) || fault.is_some() {
-            let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);
             let s = flexarm_core::recorder::Sample {
                 tick: tick.0,
                 theta: [theta.x, theta.y],
@@ -514,8 +511,7 @@ mod app {
         let producer = cx.local.producer;
         let mut push = |r: Record| {
             if producer.enqueue(r).is_err() {
-                *cx.local.telemetry_drops = cx.local.telemetry_drops.saturating_add(1);
-                TELEMETRY_DROPS.store(*cx.local.telemetry_drops, Relaxed);
+                let _ = TELEMETRY_DROPS.fetch_update(Relaxed, Relaxed, |n| n.checked_add(1));
             }
         };
         if let (Some(fault), false) = (fault, *cx.local.fault_sent) {
@@ -526,8 +522,7 @@ mod app {
                 fault,
             });
         }
-        if let Some(q) = q_hat {
-            let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);
+        if sample {
             push(Record::Sample {
                 tick: tick.0,
                 t,

@@ -125,16 +125,6 @@ fn trapezoid(target: [f32; 2], move_time: f32, ramp_time: f32) -> Command {
     })
 }
 
-/// The largest |θ − θ_d| of the trapezoid from rest at 0 on the host ([`simulated_error`]).
-fn simulated_max_error(target: [f32; 2], move_time: f32, ramp_time: f32) -> Result<f64, String> {
-    let traj = JointTrajectory::Trapezoid(Trapezoid {
-        start: nalgebra::Vector2::zeros(),
-        amplitude: nalgebra::Vector2::new(target[0], target[1]),
-        profile: Profile::new(move_time, ramp_time).map_err(|e| e.to_string())?,
-    });
-    simulated_error(&traj, 30.0)
-}
-
 /// The largest |θ − θ_d| of `traj` from rest at its start on the host, with the piezo gain
 /// `k_c` [s]: the QEMU board's rates (motor 100 Hz, piezo 1 kHz, plant step 1 ms), its sensors
 /// (16384-count encoders, 12-bit film ADC, no noise or delay) and the firmware's controller with
@@ -485,7 +475,12 @@ fn run(port: u16) -> Result<(), String> {
         .iter()
         .flat_map(|f| f.values.iter().take(2))
         .fold(0.0f32, |m, e| m.max(e.abs()));
-    let host = simulated_max_error(target, move_time, ramp)?;
+    let traj = JointTrajectory::Trapezoid(Trapezoid {
+        start: nalgebra::Vector2::zeros(),
+        amplitude: nalgebra::Vector2::new(target[0], target[1]),
+        profile: Profile::new(move_time, ramp).map_err(|e| e.to_string())?,
+    });
+    let host = simulated_error(&traj, 30.0)?;
     let bound = 3.0 * host as f32;
     check(
         during.len() >= 15 && max_error <= bound,
