@@ -442,8 +442,10 @@ impl<T: Real> Drive<T> {
                 && q.y >= l.theta_min.y
                 && q.y <= l.theta_max.y
         };
-        for k in 0..=CIRCLE_CHECKS {
-            let t = period * T::c(k as f64 / CIRCLE_CHECKS as f64);
+        // The step in `T` (an f64 division here would pull software f64 into the firmware).
+        let step = period / T::c(CIRCLE_CHECKS as f64);
+        let mut t = T::zero();
+        for _ in 0..=CIRCLE_CHECKS {
             let r = circle.sample(t);
             if !inside(r.q) {
                 return Err(Refused::Unreachable);
@@ -457,6 +459,7 @@ impl<T: Real> Drive<T> {
                 return Err(Refused::TooFast);
             }
             self.torque_within(ctrl, r.q, v, a)?;
+            t += step;
         }
         Ok(JointTrajectory::Circle(circle))
     }
