@@ -19,18 +19,25 @@
 //! centrifugal term `|h| v_max²`, within the torque limits with a margin for the feedback
 //! ([`MoveLimits::torque_share`]). A trapezoid is checked in closed form at its start and end
 //! poses; a circle of the tip, which must start where the tip is held, at 200 points of its
-//! revolution. Times are move-local [s] from the
+//! revolution; a waypoint path segment by segment ([`Drive::load_waypoints`]: the peaks in
+//! closed form, the torque at 9 poses of each segment with the segment's peaks).
+//!
+//! Validation ([`Drive::plan`]) reads only copies (the drive, the motor law, the held pose), so
+//! a firmware runs it outside the control loops' critical sections and then starts the plan
+//! with [`Drive::begin`], which only checks that nothing moved in between. Times are move-local
+//! [s] from the
 //! drive's [`MoveClock`] (the integer tick base of `crate::time`); angles in rad, in the core's
 //! joint frames.
 
 use crate::Vector2;
+use crate::control::motor::MotorController;
 use crate::controller::{Controller, MotorReport};
 use crate::fault::Fault;
 use crate::kinematics::{Elbow, Planar2};
 use crate::observer::Measurement;
 use crate::real::Real;
 use crate::time::{MoveClock, Ticks};
-use crate::trajectory::{Circle, JointTrajectory, Profile, Trapezoid};
+use crate::trajectory::{Circle, Cubic, JointTrajectory, Profile, Trapezoid};
 
 /// The drive's mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -64,6 +71,8 @@ pub enum Refused {
     Unreachable,
     /// The move asks for more speed, acceleration or torque than the limits.
     TooFast,
+    /// The waypoint list has a gap, is too long, or is not the length the move names.
+    Waypoints,
 }
 
 /// Limits on the moves a host may command.
@@ -128,20 +137,50 @@ pub enum MoveRequest<T> {
         /// Direction.
         clockwise: bool,
     },
+    /// From the held pose through the first `count` uploaded waypoints
+    /// ([`Drive::load_waypoints`]; `count` must be all of them), on the path of [`Waypoint`].
+    Waypoints {
+        /// How many waypoints.
+        count: usize,
+    },
 }
 
-impl<T: Real> MoveRequest<T> {
-    /// How long the move lasts [s].
-    pub fn duration(&self) -> T {
-        match *self {
-            Self::Trapezoid { move_time, .. } => move_time,
-            Self::Circle { period, .. } => period,
-        }
-    }
+/// Waypoints a path holds.
+pub const MAX_WAYPOINTS: usize = 32;
+
+/// One waypoint of a joint path. The path runs one cubic segment ([`Cubic`]) into each
+/// waypoint, from rest at the held pose to rest at the last waypoint. At an interior waypoint
+/// each joint's speed is the time-weighted mean of the slopes `s_a`, `s_b` of its two
+/// segments, `(s_a dt_b + s_b dt_a)/(dt_a + dt_b)`, zero where the slopes differ in sign and at
+/// most `3 min(|s_a|, |s_b|)` (Fritsch and Carlson's monotone condition): no joint overshoots
+/// a waypoint, so a path whose waypoints lie within the joint ranges stays within them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Waypoint<T> {
+    /// Joint angles θ1, θ2 [rad].
+    pub theta: Vector2<T>,
+    /// Time from the previous waypoint (or the held pose) [s].
+    pub dt: T,
+}
+
+/// A validated move, ready for [`Drive::begin`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plan<T> {
+    /// The pose it starts from [rad].
+    pub from: Vector2<T>,
+    /// Its (first segment's) trajectory.
+    trajectory: JointTrajectory<T>,
+    /// Trajectory time at which that ends [s].
+    end: T,
+    /// Waypoint segments (0: not a path).
+    segments: usize,
+    /// The whole move's duration [s].
+    pub duration: T,
 }
 
 /// Points at which a circle's speed, acceleration and torque are checked.
 const CIRCLE_CHECKS: usize = 200;
+/// Poses of each path segment at which the torque is checked.
+const SEGMENT_CHECKS: usize = 8;
 
 /// The drive (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -163,6 +202,13 @@ pub struct Drive<T> {
     last_heard: Option<Ticks>,
     /// Moves the watchdog has stopped.
     link_stops: u32,
+    /// The uploaded waypoints (`path_len` of them).
+    path: [Waypoint<T>; MAX_WAYPOINTS],
+    path_len: usize,
+    /// The running path: its origin, segment, and segment count (0: no path runs).
+    path_from: Vector2<T>,
+    segment: usize,
+    segments: usize,
 }
 
 impl<T: Real> Drive<T> {
@@ -179,6 +225,14 @@ impl<T: Real> Drive<T> {
             link_timeout: 0,
             last_heard: None,
             link_stops: 0,
+            path: [Waypoint {
+                theta: Vector2::zeros(),
+                dt: T::zero(),
+            }; MAX_WAYPOINTS],
+            path_len: 0,
+            path_from: Vector2::zeros(),
+            segment: 0,
+            segments: 0,
         }
     }
 
@@ -203,15 +257,17 @@ impl<T: Real> Drive<T> {
         self.end = end;
     }
 
-    /// One motor step at `now`: the law while armed ([`Controller::motor_step`] at the move's
-    /// time), the checks and the observer alone while disarmed ([`Controller::idle_step`]);
-    /// then a move or stop that has ended leaves the drive holding.
+    /// One motor step at `now`: a path moves on to the segment `now` falls in; the law while
+    /// armed ([`Controller::motor_step`] at the move's time), the checks and the observer alone
+    /// while disarmed ([`Controller::idle_step`]); then a move or stop that has ended leaves the
+    /// drive holding.
     pub fn step(
         &mut self,
         ctrl: &mut Controller<T>,
         now: Ticks,
         y: Option<&Measurement<T>>,
     ) -> MotorReport<T> {
+        self.advance(ctrl, now);
         let report = if ctrl.armed() {
             ctrl.motor_step(self.time(now), y)
         } else {
@@ -221,6 +277,21 @@ impl<T: Real> Drive<T> {
         self.watch_link(ctrl, now);
         self.next = now.next();
         report
+    }
+
+    /// A running path past its segment's end enters the next segment, at the time past the
+    /// boundary (so the path's time runs on without a step).
+    fn advance(&mut self, ctrl: &mut Controller<T>, now: Ticks) {
+        while self.mode == Mode::Moving && self.segment + 1 < self.segments {
+            let over = self.time(now) - self.end;
+            if over < T::zero() {
+                return;
+            }
+            self.segment += 1;
+            let c = self.cubic(self.path_from, self.segment, self.segments);
+            ctrl.trajectory = JointTrajectory::Cubic(c);
+            self.restart(now, over, c.duration);
+        }
     }
 
     /// The host spoke at `now`: feeds the link watchdog.
@@ -281,35 +352,65 @@ impl<T: Real> Drive<T> {
         self.mode = Mode::Disarmed;
     }
 
-    /// Starts `request` from the held pose, after validating it whole. Returns its duration [s].
+    /// The pose held now [rad] (where a move would start).
+    pub fn held(&self, ctrl: &Controller<T>, now: Ticks) -> Vector2<T> {
+        ctrl.trajectory.sample(self.time(now)).q
+    }
+
+    /// Starts `request` from the held pose after validating it whole: [`Self::plan`], then
+    /// [`Self::begin`]. Returns its duration [s].
     pub fn start(
         &mut self,
         ctrl: &mut Controller<T>,
         now: Ticks,
         request: &MoveRequest<T>,
     ) -> Result<T, Refused> {
-        match self.mode(ctrl) {
-            Mode::Fault => return Err(Refused::Faulted),
-            Mode::Disarmed => return Err(Refused::NotArmed),
-            Mode::Moving | Mode::Stopping => return Err(Refused::Moving),
-            Mode::Armed => {}
-        }
-        let from = ctrl.trajectory.sample(self.time(now)).q;
-        let trajectory = self.validate(ctrl, from, request)?;
-        let duration = request.duration();
-        ctrl.trajectory = trajectory;
-        self.restart(now, T::zero(), duration);
-        self.mode = Mode::Moving;
-        Ok(duration)
+        self.ready(ctrl)?;
+        let plan = self.plan(&ctrl.motor, self.held(ctrl, now), request)?;
+        self.begin(ctrl, now, &plan)
     }
 
-    /// The trajectory of `request` from `from` [rad], or why it is refused.
-    pub fn validate(
+    /// Whether a move may start: armed and holding.
+    fn ready(&self, ctrl: &Controller<T>) -> Result<(), Refused> {
+        match self.mode(ctrl) {
+            Mode::Fault => Err(Refused::Faulted),
+            Mode::Disarmed => Err(Refused::NotArmed),
+            Mode::Moving | Mode::Stopping => Err(Refused::Moving),
+            Mode::Armed => Ok(()),
+        }
+    }
+
+    /// Starts `plan` (from [`Self::plan`] on a copy of this drive) at `now`, if the drive is
+    /// still holding the pose the plan starts from. Returns the move's duration [s].
+    pub fn begin(
+        &mut self,
+        ctrl: &mut Controller<T>,
+        now: Ticks,
+        plan: &Plan<T>,
+    ) -> Result<T, Refused> {
+        self.ready(ctrl)?;
+        if self.held(ctrl, now) != plan.from {
+            return Err(Refused::Moving);
+        }
+        ctrl.trajectory = plan.trajectory;
+        self.restart(now, T::zero(), plan.end);
+        self.path_from = plan.from;
+        self.segment = 0;
+        self.segments = plan.segments;
+        self.mode = Mode::Moving;
+        Ok(plan.duration)
+    }
+
+    /// Validates `request` from the pose `from` [rad] for the motor law `motor` (its model and
+    /// torque limits): the [`Plan`] to [`Self::begin`], or why it is refused. (Not inlined: a
+    /// firmware calls it from two places and has the flash for one copy.)
+    #[inline(never)]
+    pub fn plan(
         &self,
-        ctrl: &Controller<T>,
+        motor: &MotorController<T>,
         from: Vector2<T>,
         request: &MoveRequest<T>,
-    ) -> Result<JointTrajectory<T>, Refused> {
+    ) -> Result<Plan<T>, Refused> {
         let (target, move_time, ramp_time) = match *request {
             MoveRequest::Trapezoid {
                 target,
@@ -322,9 +423,19 @@ impl<T: Real> Drive<T> {
                 period,
                 ramp_time,
                 clockwise,
-            } => return self.circle(ctrl, from, centre, radius, period, ramp_time, clockwise),
+            } => {
+                let trajectory =
+                    self.circle(motor, from, centre, radius, period, ramp_time, clockwise)?;
+                return Ok(Plan {
+                    from,
+                    trajectory,
+                    end: period,
+                    segments: 0,
+                    duration: period,
+                });
+            }
+            MoveRequest::Waypoints { count } => return self.waypoints(motor, from, count),
         };
-        let l = &self.limits;
         let finite = [target.x, target.y, move_time, ramp_time]
             .iter()
             .all(|x| x.finite());
@@ -332,10 +443,7 @@ impl<T: Real> Drive<T> {
             return Err(Refused::OutOfRange);
         }
         let profile = Profile::new(move_time, ramp_time).map_err(|_| Refused::OutOfRange)?;
-        let inside = |x: T, lo: T, hi: T| x >= lo && x <= hi;
-        if !(inside(target.x, l.theta_min.x, l.theta_max.x)
-            && inside(target.y, l.theta_min.y, l.theta_max.y))
-        {
+        if !self.inside(target) {
             return Err(Refused::Unreachable);
         }
         let amplitude = target - from;
@@ -343,37 +451,174 @@ impl<T: Real> Drive<T> {
         let cruise = move_time - ramp_time;
         let v = amplitude.abs() / cruise;
         let a = v / ramp_time;
+        self.within(v, a)?;
+        // The peak speed and acceleration at the start and end poses.
+        for pose in [from, target] {
+            self.torque_within(motor, pose, v, a)?;
+        }
+        Ok(Plan {
+            from,
+            trajectory: JointTrajectory::Trapezoid(Trapezoid {
+                start: from,
+                amplitude,
+                profile,
+            }),
+            end: move_time,
+            segments: 0,
+            duration: move_time,
+        })
+    }
+
+    /// Whether `q` lies within the move limits' joint ranges.
+    fn inside(&self, q: Vector2<T>) -> bool {
+        let l = &self.limits;
+        q.x >= l.theta_min.x && q.x <= l.theta_max.x && q.y >= l.theta_min.y && q.y <= l.theta_max.y
+    }
+
+    /// Whether joint speeds `v` and accelerations `a` (magnitudes) are within the limits.
+    fn within(&self, v: Vector2<T>, a: Vector2<T>) -> Result<(), Refused> {
+        let l = &self.limits;
         if v.x > l.speed_max.x || v.y > l.speed_max.y || a.x > l.accel_max.x || a.y > l.accel_max.y
         {
             return Err(Refused::TooFast);
         }
-        // The peak speed and acceleration at the start and end poses.
-        for pose in [from, target] {
-            self.torque_within(ctrl, pose, v, a)?;
+        Ok(())
+    }
+
+    /// Stores `points` as waypoints `first …` of the path, replacing those from `first` on (the
+    /// list then ends after them). Refused while a path runs, and when `first` leaves a gap or
+    /// the list would exceed [`MAX_WAYPOINTS`]. The values are checked when a move uses them.
+    pub fn load_waypoints(
+        &mut self,
+        ctrl: &Controller<T>,
+        first: usize,
+        points: &[Waypoint<T>],
+    ) -> Result<(), Refused> {
+        if self.segments > 0 && matches!(self.mode(ctrl), Mode::Moving) {
+            return Err(Refused::Moving);
         }
-        Ok(JointTrajectory::Trapezoid(Trapezoid {
-            start: from,
-            amplitude,
-            profile,
-        }))
+        let end = first.saturating_add(points.len());
+        if first > self.path_len || end > MAX_WAYPOINTS {
+            return Err(Refused::Waypoints);
+        }
+        let Some(slots) = self.path.get_mut(first..end) else {
+            return Err(Refused::Waypoints);
+        };
+        for (slot, w) in slots.iter_mut().zip(points) {
+            *slot = *w;
+        }
+        self.path_len = end;
+        Ok(())
+    }
+
+    /// Waypoints uploaded.
+    pub fn waypoints_loaded(&self) -> usize {
+        self.path_len
+    }
+
+    /// Path segment `i` of `count` from `from` (see [`Waypoint`]). Runs in the motor loop
+    /// ([`Self::advance`]): no indexing that could panic. One copy in a firmware's flash.
+    #[inline(never)]
+    fn cubic(&self, from: Vector2<T>, i: usize, count: usize) -> Cubic<T> {
+        let rest = Waypoint {
+            theta: from,
+            dt: T::one(),
+        };
+        // Waypoint k, 1-based (0 is the held pose).
+        let at = |k: usize| match k.checked_sub(1) {
+            Some(j) => self.path.get(j).copied().unwrap_or(rest),
+            None => rest,
+        };
+        // The speed at waypoint k.
+        let speed = |k: usize| {
+            if k == 0 || k >= count {
+                return Vector2::zeros();
+            }
+            let (a, b, c) = (at(k - 1), at(k), at(k + 1));
+            let s_a = (b.theta - a.theta) / b.dt;
+            let s_b = (c.theta - b.theta) / c.dt;
+            Vector2::from_fn(|j, _| {
+                let (x, y) = (s_a[j], s_b[j]);
+                if x * y <= T::zero() {
+                    return T::zero();
+                }
+                let v = (x * c.dt + y * b.dt) / (b.dt + c.dt);
+                let cap = T::c(3.0) * x.abs().min(y.abs());
+                if v.abs() > cap { cap * v.signum() } else { v }
+            })
+        };
+        let end = at(i + 1);
+        Cubic {
+            start: at(i).theta,
+            end: end.theta,
+            v0: speed(i),
+            v1: speed(i + 1),
+            duration: end.dt,
+        }
+    }
+
+    /// The path of [`MoveRequest::Waypoints`] from `from`: every waypoint finite and within the
+    /// joint ranges, every segment's peak speed and acceleration within the limits and its
+    /// torque estimate within its share at [`SEGMENT_CHECKS`]` + 1` poses.
+    fn waypoints(
+        &self,
+        motor: &MotorController<T>,
+        from: Vector2<T>,
+        count: usize,
+    ) -> Result<Plan<T>, Refused> {
+        if count == 0 || count != self.path_len {
+            return Err(Refused::Waypoints);
+        }
+        let points = self.path.get(..count).ok_or(Refused::Waypoints)?;
+        let finite = points
+            .iter()
+            .all(|w| w.theta.x.finite() && w.theta.y.finite() && w.dt.finite());
+        if !finite || points.iter().any(|w| w.dt <= T::zero()) {
+            return Err(Refused::OutOfRange);
+        }
+        if !points.iter().all(|w| self.inside(w.theta)) {
+            return Err(Refused::Unreachable);
+        }
+        let mut duration = T::zero();
+        for i in 0..count {
+            let c = self.cubic(from, i, count);
+            let (v, a) = c.peaks();
+            self.within(v, a)?;
+            let step = c.duration / T::c(SEGMENT_CHECKS as f64);
+            let mut t = T::zero();
+            for _ in 0..=SEGMENT_CHECKS {
+                self.torque_within(motor, c.sample(t).q, v, a)?;
+                t += step;
+            }
+            duration += c.duration;
+        }
+        let first = self.cubic(from, 0, count);
+        Ok(Plan {
+            from,
+            trajectory: JointTrajectory::Cubic(first),
+            end: first.duration,
+            segments: count,
+            duration,
+        })
     }
 
     /// The feed-forward torque at `pose` for joint speeds `v` and accelerations `a` (their
     /// magnitudes): `|B_θθ| a + |h| v²` (the rigid part of `B` and the joints' centrifugal
     /// term, `|∂h/∂θ2| ≤ a1 m2 a2/2` at δ = 0), within a share of the torque limit.
+    #[inline(never)]
     fn torque_within(
         &self,
-        ctrl: &Controller<T>,
+        motor: &MotorController<T>,
         pose: Vector2<T>,
         v: Vector2<T>,
         a: Vector2<T>,
     ) -> Result<(), Refused> {
         let l = &self.limits;
-        let tau_max = ctrl.motor.limits.tau_max;
-        let p = &ctrl.motor.model.params;
+        let tau_max = motor.limits.tau_max;
+        let p = &motor.model.params;
         let h = p.a1 * p.m2 * p.a2 * T::c(0.5);
         let q = crate::Vector4::new(pose.x, pose.y, T::zero(), T::zero());
-        let b = ctrl.motor.model.inertia(&q);
+        let b = motor.model.inertia(&q);
         let (b11, b12, b22) = (b.m11.abs(), b.m12.abs(), b.m22.abs());
         let tau = Vector2::new(
             b11 * a.x + b12 * a.y + h * (v.y * v.y + T::c(2.0) * v.x * v.y),
@@ -392,7 +637,7 @@ impl<T: Real> Drive<T> {
     #[allow(clippy::too_many_arguments)]
     fn circle(
         &self,
-        ctrl: &Controller<T>,
+        motor: &MotorController<T>,
         from: Vector2<T>,
         centre: Vector2<T>,
         radius: T,
@@ -407,7 +652,7 @@ impl<T: Real> Drive<T> {
             return Err(Refused::OutOfRange);
         }
         let profile = Profile::new(period, ramp_time).map_err(|_| Refused::OutOfRange)?;
-        let p = &ctrl.motor.model.params;
+        let p = &motor.model.params;
         let kin = Planar2 { a1: p.a1, a2: p.a2 };
         // It starts where the tip is held.
         let rel = kin.forward(&from) - centre;
@@ -435,30 +680,17 @@ impl<T: Real> Drive<T> {
         if (circle.start - from).abs().max() > T::c(1e-3) {
             return Err(Refused::Unreachable);
         }
-        let l = &self.limits;
-        let inside = |q: Vector2<T>| {
-            q.x >= l.theta_min.x
-                && q.x <= l.theta_max.x
-                && q.y >= l.theta_min.y
-                && q.y <= l.theta_max.y
-        };
         // The step in `T` (an f64 division here would pull software f64 into the firmware).
         let step = period / T::c(CIRCLE_CHECKS as f64);
         let mut t = T::zero();
         for _ in 0..=CIRCLE_CHECKS {
             let r = circle.sample(t);
-            if !inside(r.q) {
+            if !self.inside(r.q) {
                 return Err(Refused::Unreachable);
             }
             let (v, a) = (r.qd.abs(), r.qdd.abs());
-            if v.x > l.speed_max.x
-                || v.y > l.speed_max.y
-                || a.x > l.accel_max.x
-                || a.y > l.accel_max.y
-            {
-                return Err(Refused::TooFast);
-            }
-            self.torque_within(ctrl, r.q, v, a)?;
+            self.within(v, a)?;
+            self.torque_within(motor, r.q, v, a)?;
             t += step;
         }
         Ok(JointTrajectory::Circle(circle))
@@ -490,12 +722,14 @@ impl<T: Real> Drive<T> {
                             profile,
                         });
                         self.restart(now, t_r, t_r + t_r);
+                        self.segments = 0;
                         self.mode = Mode::Stopping;
                     }
                     // At rest already (or a speed that is not finite): hold where it is.
                     Err(_) => {
                         ctrl.trajectory = JointTrajectory::Hold(r.q);
                         self.restart(now, T::zero(), T::zero());
+                        self.segments = 0;
                         self.mode = Mode::Armed;
                     }
                 }

@@ -340,6 +340,97 @@ impl<T: Real> Circle<T> {
     }
 }
 
+/// One segment of a joint path: the cubic Hermite curve from `start` at speed `v0` to `end` at
+/// speed `v1` [rad, rad/s] in `duration` [s]. With `s = t/T` and `Δ = end − start`:
+///
+/// `θ_d = start + Δ (3s² − 2s³) + T v0 (s³ − 2s² + s) + T v1 (s³ − s²)`,
+///
+/// continuous in position and speed at its ends, so a chain of segments through waypoints
+/// (`crate::drive`'s waypoint moves) is too; its acceleration is linear in `t`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cubic<T> {
+    /// Joint angles at `t = 0` [rad].
+    pub start: Vector2<T>,
+    /// Joint angles at `t = T` [rad].
+    pub end: Vector2<T>,
+    /// Joint speeds at `t = 0` [rad/s].
+    pub v0: Vector2<T>,
+    /// Joint speeds at `t = T` [rad/s].
+    pub v1: Vector2<T>,
+    /// `T` [s], positive.
+    pub duration: T,
+}
+
+impl<T: Real> Cubic<T> {
+    /// Desired motion at `t` [s]: the curve on `[0, T]`; `start` at its speed `v0` before (and
+    /// for a NaN time), `end` at `v1` after, both without acceleration.
+    pub fn sample(&self, t: T) -> JointTarget<T> {
+        let z = T::zero();
+        #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
+        if !(t > z) {
+            return JointTarget {
+                q: self.start,
+                qd: self.v0,
+                qdd: Vector2::zeros(),
+            };
+        }
+        if t >= self.duration {
+            return JointTarget {
+                q: self.end,
+                qd: self.v1,
+                qdd: Vector2::zeros(),
+            };
+        }
+        let d = self.duration;
+        let s = t / d;
+        let s2 = s * s;
+        let (two, three, four, six) = (T::c(2.0), T::c(3.0), T::c(4.0), T::c(6.0));
+        let delta = self.end - self.start;
+        let (m0, m1) = (self.v0 * d, self.v1 * d);
+        let q = self.start
+            + delta * (three * s2 - two * s2 * s)
+            + m0 * (s2 * s - two * s2 + s)
+            + m1 * (s2 * s - s2);
+        let qd = (delta * (six * s - six * s2)
+            + m0 * (three * s2 - four * s + T::one())
+            + m1 * (three * s2 - two * s))
+            / d;
+        let qdd = (delta * (six - T::c(12.0) * s) + m0 * (six * s - four) + m1 * (six * s - two))
+            / (d * d);
+        JointTarget { q, qd, qdd }
+    }
+
+    /// The largest `|θ̇_d|` and `|θ̈_d|` of each joint on the segment [rad/s, rad/s²]: the speed
+    /// is quadratic in `t` (its ends and its vertex), the acceleration linear (its ends).
+    pub fn peaks(&self) -> (Vector2<T>, Vector2<T>) {
+        let d = self.duration;
+        let delta = self.end - self.start;
+        let (m0, m1) = (self.v0 * d, self.v1 * d);
+        let (two, three, four, six) = (T::c(2.0), T::c(3.0), T::c(4.0), T::c(6.0));
+        let mut v = Vector2::zeros();
+        let mut a = Vector2::zeros();
+        for j in 0..2 {
+            // d·θ̇ = α s² + β s + γ.
+            let alpha = -six * delta[j] + three * m0[j] + three * m1[j];
+            let beta = six * delta[j] - four * m0[j] - two * m1[j];
+            let mut peak = m0[j].abs().max(m1[j].abs());
+            if alpha != T::zero() {
+                let s = -beta / (two * alpha);
+                if s > T::zero() && s < T::one() {
+                    peak = peak.max((alpha * s * s + beta * s + m0[j]).abs());
+                }
+            }
+            v[j] = peak / d;
+            // d²·θ̈ at s = 0 and s = 1.
+            a[j] = beta
+                .abs()
+                .max((-six * delta[j] + two * m0[j] + four * m1[j]).abs())
+                / (d * d);
+        }
+        (v, a)
+    }
+}
+
 /// A joint trajectory the controllers can follow (an enum, so the firmware needs no `dyn`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum JointTrajectory<T> {
@@ -349,6 +440,8 @@ pub enum JointTrajectory<T> {
     Trapezoid(Trapezoid<T>),
     /// A task-space circle.
     Circle(Circle<T>),
+    /// One segment of a joint path through waypoints.
+    Cubic(Cubic<T>),
 }
 
 impl<T: Real> JointTrajectory<T> {
@@ -359,6 +452,7 @@ impl<T: Real> JointTrajectory<T> {
             Self::Hold(q) => JointTarget::rest(*q),
             Self::Trapezoid(tr) => tr.sample(t),
             Self::Circle(c) => c.sample(t),
+            Self::Cubic(c) => c.sample(t),
         }
     }
 }

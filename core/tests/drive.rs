@@ -10,7 +10,7 @@ use flexarm_core::Vector2;
 use flexarm_core::Vector4;
 use flexarm_core::control::motor::MotorLaw;
 use flexarm_core::controller::Controller;
-use flexarm_core::drive::{Drive, Mode, MoveLimits, MoveRequest, Refused};
+use flexarm_core::drive::{Drive, Mode, MoveLimits, MoveRequest, Refused, Waypoint};
 use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::simarm::{SensorModel, SimArm};
@@ -443,4 +443,185 @@ fn a_circle_starts_where_the_tip_is_held_and_is_refused_otherwise() {
     println!("circle: largest |θ − θ_d| {worst:.2e} rad");
     assert!(worst < 2e-3, "{worst}");
     assert!((b.theta() - start).abs().max() < 2e-3, "back at its start");
+}
+
+/// The path of the waypoint test: joint 1 out and back, joint 2 on a detour, 12 waypoints.
+fn path() -> Vec<Waypoint<f32>> {
+    let pts: [(f32, f32, f32); 12] = [
+        (0.2, 0.1, 0.4),
+        (0.4, 0.3, 0.4),
+        (0.7, 0.4, 0.5),
+        (0.9, 0.4, 0.3),
+        (1.0, 0.2, 0.3),
+        (1.0, 0.0, 0.4),
+        (0.8, -0.3, 0.5),
+        (0.5, -0.5, 0.5),
+        (0.3, -0.4, 0.4),
+        (0.2, -0.2, 0.3),
+        (0.1, 0.0, 0.3),
+        (0.1, 0.0, 0.2),
+    ];
+    pts.iter()
+        .map(|&(a, b, dt)| Waypoint {
+            theta: Vector2::new(a, b),
+            dt,
+        })
+        .collect()
+}
+
+#[test]
+fn a_waypoint_path_is_uploaded_in_chunks_validated_whole_and_tracked_without_overshoot() {
+    let mut b = Bench::new(Vector2::zeros());
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.run(0.1);
+    let pts = path();
+    let go = |n: usize| MoveRequest::Waypoints { count: n };
+    // Chunks: a gap is refused; the list ends after the last chunk written.
+    assert_eq!(
+        b.drive.load_waypoints(&b.ctrl, 1, &pts[..8]),
+        Err(Refused::Waypoints)
+    );
+    b.drive.load_waypoints(&b.ctrl, 0, &pts[..8]).unwrap();
+    assert_eq!(
+        b.drive.start(&mut b.ctrl, b.now, &go(12)),
+        Err(Refused::Waypoints),
+        "four waypoints missing"
+    );
+    assert_eq!(
+        b.drive.load_waypoints(&b.ctrl, 8, &[pts[0]; 25]),
+        Err(Refused::Waypoints),
+        "33 waypoints"
+    );
+    b.drive.load_waypoints(&b.ctrl, 8, &pts[8..]).unwrap();
+    assert_eq!(b.drive.waypoints_loaded(), 12);
+    // Bad values, each refused with its reason and nothing applied.
+    let held = b.ctrl.trajectory;
+    let mut bad = |k: usize, w: Waypoint<f32>, why: Refused| {
+        let mut p = pts.clone();
+        p[k] = w;
+        b.drive.load_waypoints(&b.ctrl, 0, &p).unwrap();
+        assert_eq!(
+            b.drive.start(&mut b.ctrl, b.now, &go(12)),
+            Err(why),
+            "{w:?}"
+        );
+        assert_eq!(b.ctrl.trajectory, held, "nothing applied");
+    };
+    let w = |a: f32, c: f32, dt: f32| Waypoint {
+        theta: Vector2::new(a, c),
+        dt,
+    };
+    bad(5, w(1.0, 2.8, 0.4), Refused::Unreachable);
+    bad(5, w(1.0, f32::NAN, 0.4), Refused::OutOfRange);
+    bad(5, w(1.0, 0.0, 0.0), Refused::OutOfRange);
+    bad(5, w(1.0, 0.0, 0.05), Refused::TooFast);
+    b.drive.load_waypoints(&b.ctrl, 0, &pts).unwrap();
+    let total: f32 = pts.iter().map(|w| w.dt).sum();
+    assert_eq!(b.drive.start(&mut b.ctrl, b.now, &go(12)), Ok(total));
+    // Uploading into the running path is refused.
+    assert_eq!(
+        b.drive.load_waypoints(&b.ctrl, 0, &pts[..1]),
+        Err(Refused::Moving)
+    );
+
+    // Run it: the reference is continuous (position and speed) through every waypoint, passes
+    // through each at its time, never leaves the box of the two waypoints around it, and the
+    // arm tracks it.
+    let (lo, hi) = pts.iter().fold(
+        (Vector2::zeros(), Vector2::zeros()),
+        |(lo, hi): (Vector2<f32>, Vector2<f32>), w| (lo.inf(&w.theta), hi.sup(&w.theta)),
+    );
+    let mut previous = b.ctrl.trajectory.sample(b.drive.time(b.now));
+    let (mut worst, mut jump_q, mut jump_v, mut peak_v, mut outside) =
+        (0f32, 0f32, 0f32, 0f32, 0f32);
+    let mut passed = Vec::new();
+    let mut at = 0.0f32;
+    let periods = (total * 1000.0) as usize + 300;
+    for k in 0..periods {
+        b.period();
+        let r = b.ctrl.trajectory.sample(b.drive.time(b.now));
+        jump_q = jump_q.max((r.q - previous.q - previous.qd * 1e-3).abs().max());
+        jump_v = jump_v.max((r.qd - previous.qd).abs().max());
+        peak_v = peak_v.max(r.qd.abs().max());
+        outside = outside.max((lo - r.q).max().max((r.q - hi).max()));
+        previous = r;
+        worst = worst.max((b.theta() - r.q).abs().max());
+        // The reference at each waypoint's time (within one motor period).
+        let t = (k + 1) as f32 * 1e-3;
+        if let Some(w) = pts.get(passed.len())
+            && t + 0.5e-3 >= at + w.dt
+        {
+            at += w.dt;
+            passed.push((r.q - w.theta).abs().max());
+        }
+    }
+    let miss = passed.iter().cloned().fold(0.0, f32::max);
+    println!(
+        "path: |θ − θ_d| {worst:.2e} rad; reference steps: position {jump_q:.2e} rad beyond v·T, speed {jump_v:.2e} rad/s per period; \
+         peak speed {peak_v:.2} rad/s; waypoints missed by {miss:.2e} rad; outside the waypoints' box {outside:.1e} rad"
+    );
+    assert_eq!(passed.len(), 12);
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Armed);
+    // A period's speed change at the limits' 10 rad/s² is 0.01 rad/s; the position beyond the
+    // speed's step, half that times T.
+    assert!(jump_v < 0.012, "{jump_v}");
+    assert!(jump_q < 1e-5, "{jump_q}");
+    assert!(peak_v <= 3.0, "{peak_v}");
+    // The waypoints' times are whole motor periods here: the sample there is the waypoint, to
+    // the rounding of the path's time.
+    assert!(miss < 1e-5, "{miss}");
+    assert!(outside <= 0.0, "no overshoot: {outside}");
+    assert!(worst < 2e-3, "{worst}");
+    assert!((b.theta() - pts[11].theta).abs().max() < 1e-3);
+}
+
+#[test]
+fn a_stop_during_a_path_ends_it() {
+    let mut b = Bench::new(Vector2::zeros());
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    let pts = path();
+    b.drive.load_waypoints(&b.ctrl, 0, &pts).unwrap();
+    b.drive
+        .start(&mut b.ctrl, b.now, &MoveRequest::Waypoints { count: 12 })
+        .unwrap();
+    b.run(1.0);
+    b.drive.stop(&mut b.ctrl, b.now).unwrap();
+    b.run(1.0);
+    assert_eq!(b.drive.mode(&b.ctrl), Mode::Armed);
+    let held = b.ctrl.trajectory.sample(b.drive.time(b.now)).q;
+    b.run(2.0);
+    let after = b.ctrl.trajectory.sample(b.drive.time(b.now)).q;
+    assert_eq!(held, after, "the path does not resume after the stop");
+    // Stopped short of the path's second half (joint 2 negative from waypoint 7 on).
+    assert!(held.y > 0.0, "{held:?}");
+}
+
+#[test]
+fn a_plan_starts_only_from_the_pose_it_was_made_for() {
+    let mut b = Bench::new(Vector2::zeros());
+    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    let from = b.drive.held(&b.ctrl, b.now);
+    let copy = b.drive;
+    let plan = copy
+        .plan(&b.ctrl.motor, from, &trapezoid([0.3, 0.0], 1.0, 0.25))
+        .unwrap();
+    // Another move starts and ends in between: the held pose is no longer the plan's.
+    b.drive
+        .start(&mut b.ctrl, b.now, &trapezoid([0.1, 0.0], 0.5, 0.1))
+        .unwrap();
+    assert_eq!(
+        b.drive.begin(&mut b.ctrl, b.now, &plan),
+        Err(Refused::Moving)
+    );
+    b.run(1.0);
+    assert_eq!(
+        b.drive.begin(&mut b.ctrl, b.now, &plan),
+        Err(Refused::Moving)
+    );
+    let from = b.drive.held(&b.ctrl, b.now);
+    let plan = b
+        .drive
+        .plan(&b.ctrl.motor, from, &trapezoid([0.3, 0.0], 1.0, 0.25))
+        .unwrap();
+    assert_eq!(b.drive.begin(&mut b.ctrl, b.now, &plan), Ok(1.0));
 }

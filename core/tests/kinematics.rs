@@ -5,7 +5,9 @@
 use flexarm_core::indices::{L2Norm, TailMean};
 use flexarm_core::kinematics::{Elbow, Planar2};
 use flexarm_core::params::{ArmParams, Gains, Limits, ParamError};
-use flexarm_core::trajectory::{Circle, JointTrajectory, Profile, TrajectoryError, Trapezoid};
+use flexarm_core::trajectory::{
+    Circle, Cubic, JointTrajectory, Profile, TrajectoryError, Trapezoid,
+};
 use flexarm_core::{Vector2, Vector4};
 use proptest::prelude::*;
 
@@ -20,6 +22,45 @@ proptest! {
         prop_assert!((KIN.forward(&th) - p).norm() < 1e-12);
         let side_ok = if neg { th.y <= 0.0 } else { th.y >= 0.0 };
         prop_assert!(side_ok);
+    }
+
+    /// A path segment's derivatives are its curve's, its ends are as given, and its closed-form
+    /// peaks bound a dense sampling and are reached by it.
+    #[test]
+    fn a_cubic_segment_has_consistent_derivatives_and_exact_peaks(
+        q in prop::array::uniform4(-2.0..2.0f64),
+        v in prop::array::uniform4(-3.0..3.0f64),
+        duration in 0.05..3.0f64,
+    ) {
+        let c = Cubic {
+            start: Vector2::new(q[0], q[1]),
+            end: Vector2::new(q[2], q[3]),
+            v0: Vector2::new(v[0], v[1]),
+            v1: Vector2::new(v[2], v[3]),
+            duration,
+        };
+        let at = |t: f64| c.sample(t);
+        let (first, last) = (at(duration * 1e-12), at(duration * (1.0 - 1e-12)));
+        prop_assert!((first.q - c.start).norm() < 1e-9 && (last.q - c.end).norm() < 1e-9);
+        prop_assert!((first.qd - c.v0).norm() < 1e-6 && (last.qd - c.v1).norm() < 1e-6);
+        let (vp, ap) = c.peaks();
+        let (mut vs, mut as_) = (Vector2::<f64>::zeros(), Vector2::<f64>::zeros());
+        let h = duration * 1e-6;
+        for k in 0..=2000 {
+            let t = (duration * f64::from(k) / 2000.0).clamp(1e-12, duration * (1.0 - 1e-12));
+            let b = at(t);
+            if k > 0 && k < 2000 {
+                let (a, d) = (at(t - h), at(t + h));
+                prop_assert!(((d.q - a.q) / (2.0 * h) - b.qd).norm() < 1e-5 * (1.0 + b.qd.norm()));
+                prop_assert!(((d.qd - a.qd) / (2.0 * h) - b.qdd).norm() < 1e-4 * (1.0 + b.qdd.norm()));
+            }
+            vs = vs.sup(&b.qd.abs());
+            as_ = as_.sup(&b.qdd.abs());
+        }
+        for j in 0..2 {
+            prop_assert!(vs[j] <= vp[j] * (1.0 + 1e-12) && vs[j] >= vp[j] * (1.0 - 1e-4) - 1e-12, "speed {} {}", vs[j], vp[j]);
+            prop_assert!(as_[j] <= ap[j] * (1.0 + 1e-9) && as_[j] >= ap[j] * (1.0 - 1e-6) - 1e-9, "acceleration {} {}", as_[j], ap[j]);
+        }
     }
 
     #[test]

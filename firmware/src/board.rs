@@ -35,4 +35,8 @@ pub trait Board {
     /// Called once per piezo period after the outputs are written: the simulated board
     /// advances its plant here; a real board does nothing.
     fn tick(&mut self) {}
+    /// Called once per motor period with the time `t` [s] since the boot move's start: the
+    /// QEMU board's verdict runs measure the plant against the move here (`crate::verdict`);
+    /// a real board does nothing.
+    fn motor_period(&mut self, _t: f32) {}
 }

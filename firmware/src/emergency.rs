@@ -105,7 +105,19 @@ fn stop(what: &str) -> ! {
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     stop_outputs();
-    defmt::error!("panic: {}", defmt::Display2Format(info));
+    // The message only when it is a plain string, and the location: formatting the arguments
+    // would link `core::fmt` (about 3 KiB of flash) for a message the location already points
+    // to.
+    let message = info.message().as_str().unwrap_or("(formatted message)");
+    match info.location() {
+        Some(l) => defmt::error!(
+            "panic: {=str} at {=str}:{=u32}",
+            message,
+            l.file(),
+            l.line()
+        ),
+        None => defmt::error!("panic: {=str}", message),
+    }
     stop("panic")
 }
 

@@ -3,18 +3,19 @@
 //! the idle task decodes them, answers, and streams the telemetry the host subscribed to. Both
 //! run below the control loops, so nothing on the link can delay them.
 //!
-//! The commands act on the drive (`flexarm_core::drive`): arm, disarm, estop, trapezoid and
-//! circle moves, stop, clear; `get`/`set` on the tunable parameters (`flexarm_core::tuning`) and the link
-//! watchdog's timeout; the fault recorder's pages. Not yet implemented, refused with
-//! [`Refusal::Unsupported`]: waypoint lists (docs/link.md).
+//! The commands act on the drive (`flexarm_core::drive`): arm, disarm, estop, trapezoid,
+//! circle and waypoint moves (the waypoints uploaded in chunks), stop, clear; `get`/`set` on the
+//! tunable parameters (`flexarm_core::tuning`) and the link watchdog's timeout; the fault
+//! recorder's pages. A move is validated outside the control loops' locks ([`start_move`]).
 //!
 //! Hardware board: USART1 on PB6 (TX) and PB7 (RX) (the board configures the pins), 921 600
 //! baud, 8N1. QEMU board: the same USART, exposed by QEMU as a TCP socket
 //! (`scripts/qemu-link`).
 
 use flexarm_core::Vector2;
+use flexarm_core::control::motor::MotorController;
 use flexarm_core::controller::Controller;
-use flexarm_core::drive::{self, Drive, MoveRequest, Refused};
+use flexarm_core::drive::{self, Drive, MoveRequest, Refused, Waypoint};
 use flexarm_core::observer::Measurement;
 use flexarm_core::tuning::{Tunable, TuneError, Tuning};
 use flexarm_link::msg::{
@@ -136,7 +137,7 @@ impl Session {
     /// Takes one received byte; returns a complete request. A frame that does not decode is
     /// dropped (it has no id to answer) and logged.
     pub fn receive(&mut self, byte: u8) -> Option<Request> {
-        match self.decoder.push::<Request>(byte)? {
+        match self.decoder.push_request(byte)? {
             Ok(req) => Some(req),
             Err(e) => {
                 defmt::warn!("link: frame dropped: {=str}", frame_error(e));
@@ -146,7 +147,7 @@ impl Session {
     }
 
     /// The answer to `command`, applied to the controller and the drive (the caller holds
-    /// both for the duration: a few microseconds).
+    /// both for the duration: a few microseconds). Moves are [`start_move`]'s.
     pub fn answer(
         &mut self,
         command: Command,
@@ -214,33 +215,21 @@ impl Session {
             }
             // Done by the caller on the QEMU link-session build, which owns the board.
             Command::TestAmplifierFault(_) if cfg!(feature = "link-session") => Reply::Done,
-            Command::Move(Move::Trapezoid {
-                target,
-                move_time,
-                ramp_time,
-            }) => {
-                let request = MoveRequest::Trapezoid {
-                    target: Vector2::new(target[0], target[1]),
-                    move_time,
-                    ramp_time,
-                };
-                done(drive.start(ctrl, now, &request).map(|_| ()))
-            }
-            Command::Move(Move::Circle {
-                centre,
-                radius,
-                period,
-                ramp_time,
-                clockwise,
-            }) => {
-                let request = MoveRequest::Circle {
-                    centre: Vector2::new(centre[0], centre[1]),
-                    radius,
-                    period,
-                    ramp_time,
-                    clockwise,
-                };
-                done(drive.start(ctrl, now, &request).map(|_| ()))
+            // The caller's (start_move), outside this lock.
+            Command::Move(_) => Reply::Refused(Refusal::Unsupported),
+            Command::Waypoints { first, points } => {
+                let mut w = [Waypoint {
+                    theta: Vector2::zeros(),
+                    dt: 0.0,
+                }; flexarm_link::msg::WAYPOINTS_PER_CHUNK];
+                for (w, p) in w.iter_mut().zip(&points) {
+                    *w = Waypoint {
+                        theta: Vector2::new(p.theta[0], p.theta[1]),
+                        dt: p.dt,
+                    };
+                }
+                let w = w.get(..points.len()).unwrap_or(&[]);
+                done(drive.load_waypoints(ctrl, usize::from(first), w))
             }
             Command::Subscribe {
                 decimation,
@@ -284,9 +273,7 @@ impl Session {
                     Err(e) => Reply::Refused(tune_refusal(e)),
                 }
             }
-            Command::Move(Move::Waypoints { .. })
-            | Command::Waypoints { .. }
-            | Command::TestAmplifierFault(_) => Reply::Refused(Refusal::Unsupported),
+            Command::TestAmplifierFault(_) => Reply::Refused(Refusal::Unsupported),
         }
     }
 
@@ -341,6 +328,65 @@ impl Session {
     }
 }
 
+/// A copy of what a move's validation reads: the drive (its limits and waypoints) and the motor
+/// law (its model and torque limits), with the pose held. A static (the idle task's), not on
+/// the stack: it is about 700 bytes.
+pub type Snapshot = (Drive<f32>, MotorController<f32>, Vector2<f32>);
+
+/// Validates and starts a move. The drive and the motor law are copied into `snapshot` under a
+/// short lock; the plan is made outside every lock (a circle's 200 checked points take about a
+/// motor period on the board, which the motor loop must not wait for); then one short lock
+/// starts it, if the drive still holds the pose it was planned from.
+pub fn start_move(
+    m: Move,
+    ctrl: &mut impl rtic::Mutex<T = Controller<f32>>,
+    drive: &mut impl rtic::Mutex<T = Drive<f32>>,
+    snapshot: &mut Snapshot,
+) -> Reply {
+    let request = match m {
+        Move::Trapezoid {
+            target,
+            move_time,
+            ramp_time,
+        } => MoveRequest::Trapezoid {
+            target: Vector2::new(target[0], target[1]),
+            move_time,
+            ramp_time,
+        },
+        Move::Circle {
+            centre,
+            radius,
+            period,
+            ramp_time,
+            clockwise,
+        } => MoveRequest::Circle {
+            centre: Vector2::new(centre[0], centre[1]),
+            radius,
+            period,
+            ramp_time,
+            clockwise,
+        },
+        Move::Waypoints { count } => MoveRequest::Waypoints {
+            count: usize::from(count),
+        },
+    };
+    ctrl.lock(|c| {
+        drive.lock(|d| {
+            d.heard(d.next_tick());
+            snapshot.0 = *d;
+            snapshot.1 = c.motor;
+            snapshot.2 = d.held(c, d.next_tick());
+        })
+    });
+    let (d, motor, from) = snapshot;
+    let plan = match d.plan(motor, *from, &request) {
+        Ok(p) => p,
+        Err(e) => return Reply::Refused(refusal(e)),
+    };
+    ctrl.lock(|c| drive.lock(|d| d.begin(c, d.next_tick(), &plan)))
+        .map_or_else(|e| Reply::Refused(refusal(e)), |_| Reply::Done)
+}
+
 fn load(s: &crate::stats::TaskStats) -> Load {
     Load {
         mean_cycles: s.mean(),
@@ -368,6 +414,7 @@ fn refusal(r: Refused) -> Refusal {
         Refused::OutOfRange => Refusal::OutOfRange,
         Refused::Unreachable => Refusal::Unreachable,
         Refused::TooFast => Refusal::TooFast,
+        Refused::Waypoints => Refusal::Waypoints,
     }
 }
 
@@ -450,7 +497,7 @@ fn frame_error(e: flexarm_link::FrameError) -> &'static str {
 /// Encodes and sends one message.
 pub fn send(serial: &mut Serial, msg: &DeviceMsg) -> bool {
     let mut buf = [0u8; flexarm_link::MAX_FRAME];
-    match flexarm_link::encode(msg, &mut buf) {
+    match flexarm_link::frame::encode_device(msg, &mut buf) {
         Ok(f) => {
             serial.write_all(f);
             true

@@ -15,7 +15,7 @@
 #![no_std]
 #![no_main]
 // The QEMU link-session build has no boot move and no end-of-run verdict: the verdict's code
-// (RunCheck, `verdict`, the stack report) is compiled but unused there.
+// (`verdict`, the stack report) is compiled but unused there.
 #![cfg_attr(feature = "link-session", allow(dead_code))]
 
 mod board;
@@ -81,18 +81,6 @@ mod app {
     /// Telemetry records the motor loop could not queue.
     static TELEMETRY_DROPS: AtomicU32 = AtomicU32::new(0);
 
-    /// What the QEMU run checks at its end.
-    #[derive(Default)]
-    #[cfg_attr(not(feature = "qemu"), allow(dead_code))]
-    pub struct RunCheck {
-        max_error: f32,
-        tail_error_sum: f32,
-        tail_samples: u32,
-        max_tip: f32,
-        final_tip: f32,
-        finished: bool,
-    }
-
     /// The fault recorder's type (`config::RECORDER_LEN` samples).
     pub type FaultRecorder = flexarm_core::recorder::Recorder<{ config::RECORDER_LEN }>;
 
@@ -102,7 +90,6 @@ mod app {
         drive: Drive<f32>,
         recorder: &'static mut FaultRecorder,
         board: BoardImpl,
-        check: RunCheck,
     }
 
     #[local]
@@ -117,6 +104,7 @@ mod app {
         rx: crate::link::Receiver,
         serial: crate::link::Serial,
         session: crate::link::Session,
+        snapshot: crate::link::Snapshot,
         piezo_ticks: u32,
         now: Ticks,
         move_clock: MoveClock,
@@ -299,7 +287,6 @@ mod app {
                 drive,
                 recorder: cx.local.recorder,
                 board,
-                check: RunCheck::default(),
             },
             Local {
                 tim2: dp.TIM2,
@@ -311,6 +298,7 @@ mod app {
                 rx_consumer,
                 rx: crate::link::Receiver,
                 serial,
+                snapshot: (drive, ctrl.motor, Vector2::zeros()),
                 session: crate::link::Session::new(flexarm_core::tuning::Tuning {
                     piezo: config::piezo_gains(),
                     piezo_period: 1.0 / PIEZO_HZ as f32,
@@ -340,7 +328,7 @@ mod app {
 
     /// Telemetry and the command link: prints queued records and streams the subscribed ones;
     /// answers the link's requests; at the end of a QEMU run, checks the bounds and exits.
-    #[idle(local = [consumer, rx_consumer, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0, stops_seen: u32 = 0], shared = [check, ctrl, drive, recorder, board])]
+    #[idle(local = [consumer, rx_consumer, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0, stops_seen: u32 = 0, snapshot], shared = [ctrl, drive, recorder, board])]
     fn idle(mut cx: idle::Context) -> ! {
         use crate::link;
         crate::stack::paint();
@@ -391,12 +379,20 @@ mod app {
                     cx.shared.board.lock(|b| b.inject_amplifier_fault(on));
                 }
                 let session = &mut cx.local.session;
-                let reply = (
-                    &mut cx.shared.ctrl,
-                    &mut cx.shared.drive,
-                    &mut cx.shared.recorder,
-                )
-                    .lock(|c, d, r| session.answer(request.command, c, d, r, &io));
+                let reply = match request.command {
+                    flexarm_link::Command::Move(m) => link::start_move(
+                        m,
+                        &mut cx.shared.ctrl,
+                        &mut cx.shared.drive,
+                        cx.local.snapshot,
+                    ),
+                    command => (
+                        &mut cx.shared.ctrl,
+                        &mut cx.shared.drive,
+                        &mut cx.shared.recorder,
+                    )
+                        .lock(|c, d, r| session.answer(command, c, d, r, &io)),
+                };
                 link::send(
                     cx.local.serial,
                     &flexarm_link::DeviceMsg::Reply {
@@ -405,9 +401,8 @@ mod app {
                     },
                 );
             }
-            #[cfg(not(feature = "link-session"))]
-            if cx.shared.check.lock(|c| c.finished) {
-                #[cfg(feature = "qemu")]
+            #[cfg(all(feature = "qemu", not(feature = "link-session")))]
+            if cx.shared.board.lock(|b| b.run.finished) {
                 finish(&mut cx);
             }
             cortex_m::asm::wfi();
@@ -418,11 +413,10 @@ mod app {
     fn finish(cx: &mut idle::Context) {
         use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
         let fault = cx.shared.ctrl.lock(|c| c.fault());
-        let enabled = cx.shared.board.lock(|b| b.arm.enabled());
-        let ok = cx.shared.check.lock(|c| {
-            let tail = c.tail_error_sum / c.tail_samples.max(1) as f32;
-            crate::verdict::judge(c.max_error, tail, c.max_tip, c.final_tip, fault, enabled)
-        });
+        let ok = cx
+            .shared
+            .board
+            .lock(|b| crate::verdict::judge(&b.run, fault, b.arm.enabled()));
         exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
     }
 
@@ -454,7 +448,7 @@ mod app {
     }
 
     /// Motor loop: encoders and film in, observer, Eq. 7, torques out.
-    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, fault_sent, amplifier, enabled], shared = [ctrl, drive, recorder, board, check])]
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, fault_sent, amplifier, enabled], shared = [ctrl, drive, recorder, board])]
     fn motor_loop(mut cx: motor_loop::Context) {
         let start = clock::now();
         cx.local.tim3.sr().write(|w| w.uif().clear_bit());
@@ -490,6 +484,8 @@ mod app {
         cx.shared.board.lock(|b| {
             b.set_torques(cmd.tau);
             b.set_enable(cmd.enable);
+            #[cfg(not(feature = "link-session"))]
+            b.motor_period(t);
         });
         *cx.local.enabled = cmd.enable;
         MOTOR_HEARTBEAT.fetch_add(1, Relaxed);
@@ -534,31 +530,6 @@ mod app {
             });
         }
 
-        #[cfg(all(feature = "qemu", not(feature = "link-session")))]
-        cx.shared.check.lock(|chk| {
-            cx.shared.board.lock(|b| {
-                let x = b.arm.x;
-                let desired = flexarm_core::trajectory::Trapezoid::<f32>::paper()
-                    .sample(t)
-                    .q;
-                let err = (Vector2::new(x.q.x, x.q.y) - desired).abs().max();
-                chk.max_error = chk.max_error.max(err);
-                if t >= config::RUN_SECONDS - 3.0 {
-                    chk.tail_error_sum += err;
-                    chk.tail_samples += 1;
-                }
-                let tip = b.arm.model.tip_deflection(&x.q).abs();
-                chk.max_tip = chk.max_tip.max(tip);
-                chk.final_tip = tip;
-                if b.diverged {
-                    chk.max_error = f32::INFINITY;
-                }
-            });
-            if t >= config::RUN_SECONDS {
-                chk.finished = true;
-            }
-        });
-
         #[cfg(feature = "inject-panic")]
         if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
             panic!("injected panic in the motor loop at t = 1 s");
@@ -595,7 +566,6 @@ mod app {
             cx.shared.ctrl.lock(|c| c.trip(Fault::Overrun));
             cx.shared.board.lock(safe_outputs);
         }
-        let _ = t;
     }
 
     /// The command link's receive interrupt: bytes from USART1 into the queue, nothing else.

@@ -1,9 +1,13 @@
-//! The QEMU run's verdict: the bounds of `config::bounds`, no deadline miss, and the fault the
-//! run was built to inject (none for a plain run).
+//! The QEMU verdict runs (`cargo fw-qemu`, the injection and uptime runs): the QEMU board
+//! measures its plant against the boot move every motor period ([`RunCheck`]); at the end the
+//! verdict is the bounds of `config::bounds`, no deadline miss, and the fault the run was built
+//! to inject (none for a plain run). The application only starts the move and, at the end,
+//! exits with the verdict; a link session (`link-session`) has neither: its host judges it.
 
 use flexarm_core::Fault;
+use flexarm_core::simarm::SimArm;
 
-use crate::config::bounds;
+use crate::config::{self, bounds};
 use crate::stats;
 
 include!(concat!(env!("OUT_DIR"), "/budgets.rs"));
@@ -19,15 +23,50 @@ const EXPECTED_FAULT: Option<Fault> = if cfg!(feature = "inject-nan") {
     None
 };
 
-/// Logs the figures and returns whether the run passed.
-pub fn judge(
+/// What the verdict run measures of the plant (the true arm, not the controller's estimate).
+#[derive(Default)]
+pub struct RunCheck {
     max_error: f32,
-    tail_error: f32,
+    tail_error_sum: f32,
+    tail_samples: u32,
     max_tip: f32,
     final_tip: f32,
-    fault: Option<Fault>,
-    enabled: bool,
-) -> bool {
+    /// The run's time is up.
+    pub finished: bool,
+}
+
+impl RunCheck {
+    /// One motor period at `t` [s] since the boot move's start (the paper's trapezoid).
+    pub fn observe(&mut self, arm: &SimArm<f32>, diverged: bool, t: f32) {
+        let x = arm.x;
+        let desired = flexarm_core::trajectory::Trapezoid::<f32>::paper()
+            .sample(t)
+            .q;
+        let err = (flexarm_core::Vector2::new(x.q.x, x.q.y) - desired)
+            .abs()
+            .max();
+        self.max_error = self.max_error.max(err);
+        if t >= config::RUN_SECONDS - 3.0 {
+            self.tail_error_sum += err;
+            self.tail_samples += 1;
+        }
+        let tip = arm.model.tip_deflection(&x.q).abs();
+        self.max_tip = self.max_tip.max(tip);
+        self.final_tip = tip;
+        if diverged {
+            self.max_error = f32::INFINITY;
+        }
+        if t >= config::RUN_SECONDS {
+            self.finished = true;
+        }
+    }
+}
+
+/// Logs the figures and returns whether the run passed, given the latched fault and the
+/// enable line now.
+pub fn judge(c: &RunCheck, fault: Option<Fault>, enabled: bool) -> bool {
+    let (max_error, max_tip, final_tip) = (c.max_error, c.max_tip, c.final_tip);
+    let tail_error = c.tail_error_sum / c.tail_samples.max(1) as f32;
     let misses = stats::PIEZO.misses() + stats::MOTOR.misses();
     let stack = crate::stack::used();
     let stack_ok = stack <= BUDGET_STACK_QEMU;

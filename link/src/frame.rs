@@ -130,3 +130,20 @@ impl Decoder {
         Some(decode_frame(&mut self.buf[..len]))
     }
 }
+
+/// [`encode`] for the firmware's messages, compiled once in this crate.
+#[inline(never)]
+pub fn encode_device<'a>(
+    msg: &crate::DeviceMsg,
+    out: &'a mut [u8],
+) -> Result<&'a [u8], FrameError> {
+    encode(msg, out)
+}
+
+impl Decoder {
+    /// [`Decoder::push`] for requests, compiled once in this crate.
+    #[inline(never)]
+    pub fn push_request(&mut self, byte: u8) -> Option<Result<crate::Request, FrameError>> {
+        self.push(byte)
+    }
+}

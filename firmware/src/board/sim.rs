@@ -128,6 +128,8 @@ pub struct SimBoard {
     fault_n: SimPin,
     /// Set when the plant left its domain (a failed run).
     pub diverged: bool,
+    /// The verdict run's measurements.
+    pub run: crate::verdict::RunCheck,
 }
 
 impl SimBoard {
@@ -139,6 +141,7 @@ impl SimBoard {
             enable: SimPin(false),
             fault_n: SimPin(true),
             diverged: false,
+            run: crate::verdict::RunCheck::default(),
         }
     }
 }
@@ -179,6 +182,9 @@ impl Board for SimBoard {
     fn amplifier_fault(&mut self) -> bool {
         let Ok(low) = self.fault_n.is_low();
         low
+    }
+    fn motor_period(&mut self, t: f32) {
+        self.run.observe(&self.arm, self.diverged, t);
     }
     fn tick(&mut self) {
         if !self.arm.step(self.dt) {

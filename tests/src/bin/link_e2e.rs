@@ -10,7 +10,9 @@
 //! move (another move and a parameter change refused while it runs) stopped on its way, which
 //! decelerates and holds short of its target; a move stopped by the link watchdog while the host
 //! is silent; the paper's circle, refused where the tip is not on it, then run from its start
-//! within three times the host simulation's error; disarm, estop; a clear refused with no fault latched; an amplifier fault injected
+//! within three times the host simulation's error; a waypoint path uploaded in chunks (a gap and
+//! an incomplete list refused) and tracked within three times the host's run of the same path;
+//! disarm, estop; a clear refused with no fault latched; an amplifier fault injected
 //! (the test build's command) and read from the fault recorder, its clear refused until the line
 //! is released; and the telemetry of the whole session without a sequence gap. Prints one line per check; exit
 //! status 0 only if all pass.
@@ -20,7 +22,9 @@ use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
 use flexarm_core::trajectory::{Circle, JointTrajectory, Profile, Trapezoid};
-use flexarm_link::msg::{Board, Channels, Command, Mode, Move, Param, Refusal, Reply, Telemetry};
+use flexarm_link::msg::{
+    Board, Channels, Command, Mode, Move, Param, Refusal, Reply, Telemetry, Waypoint,
+};
 use flexarm_link::{Decoder, DeviceMsg, MAX_FRAME, Request, VERSION, encode};
 use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource, simulate};
 
@@ -37,7 +41,12 @@ struct Link {
     /// Replies to requests below this id are the handshake's repeats, late: ignored.
     handshake_ids: u16,
     telemetry: Vec<Telemetry>,
+    /// Replies to the flood's requests.
+    flood_replies: u32,
 }
+
+/// Request ids of the flood's frames.
+const FLOOD_IDS: u16 = 50_000;
 
 impl Link {
     fn send(&mut self, command: Command) -> Result<u16, String> {
@@ -79,6 +88,7 @@ impl Link {
             match self.next()? {
                 Some(DeviceMsg::Reply { id: got, reply }) if got == id => return Ok(reply),
                 Some(DeviceMsg::Reply { id: got, .. }) if got < self.handshake_ids => {}
+                Some(DeviceMsg::Reply { id: got, .. }) if got >= FLOOD_IDS => self.flood_replies += 1,
                 Some(DeviceMsg::Reply { id: got, .. }) => {
                     return Err(format!("a reply to request {got} while waiting for {id}"));
                 }
@@ -133,6 +143,7 @@ fn simulated_error(traj: &JointTrajectory<f32>, k_c: f32) -> Result<f64, String>
     let move_time = match traj {
         JointTrajectory::Trapezoid(t) => t.profile.duration(),
         JointTrajectory::Circle(c) => c.profile.duration(),
+        JointTrajectory::Cubic(c) => c.duration,
         JointTrajectory::Hold(_) => 1.0,
     };
     let cfg = SimConfig {
@@ -206,6 +217,283 @@ fn circle(link: &mut Link) -> Result<(), String> {
         format!(
             "max |θ − θ_d| {max_error:.2e} rad over {} frames; host {host:.2e} rad, bound 3× = {bound:.2e}",
             during.len()
+        ),
+    )
+}
+
+/// The waypoint path of the session: 12 joint waypoints from (0, 0), out on a detour and back.
+const PATH: [(f32, f32, f32); 12] = [
+    (0.2, 0.1, 0.4),
+    (0.4, 0.3, 0.4),
+    (0.7, 0.4, 0.5),
+    (0.9, 0.4, 0.3),
+    (1.0, 0.2, 0.3),
+    (1.0, 0.0, 0.4),
+    (0.8, -0.3, 0.5),
+    (0.5, -0.5, 0.5),
+    (0.3, -0.4, 0.4),
+    (0.2, -0.2, 0.3),
+    (0.1, 0.0, 0.3),
+    (0.1, 0.0, 0.2),
+];
+
+/// The largest |θ̂ − θ_d| of [`PATH`] from rest at (0, 0) in the core's closed loop on the host, as
+/// the QEMU board runs it: the paper's controller with the 100 Hz observer, `k_c` = 3.162 s,
+/// the drive, and the core's simulated arm with the QEMU board's sensors, stepped every 1 ms.
+fn path_simulation() -> Result<f32, String> {
+    use flexarm_core::control::motor::MotorLaw;
+    use flexarm_core::controller::Controller;
+    use flexarm_core::drive::{Drive, MoveLimits, MoveRequest};
+    use flexarm_core::observer::Measurement;
+    use flexarm_core::observer_gains::{GAIN_100HZ, gain};
+    use flexarm_core::simarm::{SensorModel, SimArm};
+    use flexarm_core::time::Ticks;
+    let mut ctrl = Controller::paper(
+        MotorLaw::Tracking,
+        JointTrajectory::Hold(nalgebra::Vector2::zeros()),
+        1e-3,
+        1e-2,
+        gain(&GAIN_100HZ),
+    );
+    let mut tuning = flexarm_core::tuning::Tuning {
+        piezo: flexarm_core::control::piezo::PiezoGains::default(),
+        piezo_period: 1e-3,
+        tau_ceiling: ctrl.motor.limits.tau_max,
+        v_a_ceiling: ctrl.motor.limits.v_a_max,
+    };
+    tuning
+        .set(
+            &mut ctrl,
+            flexarm_core::drive::Mode::Disarmed,
+            flexarm_core::tuning::Tunable::Kc,
+            3.162,
+        )
+        .map_err(|e| format!("{e:?}"))?;
+    let mut arm = SimArm::new(
+        ctrl.motor.model,
+        ctrl.patch,
+        nalgebra::Vector4::zeros(),
+        SensorModel::default(),
+    );
+    ctrl.reset_observer(arm.encoders());
+    let mut drive = Drive::new(&mut ctrl, 100, Ticks(0), MoveLimits::default());
+    let mut now = Ticks(0);
+    drive.arm(&mut ctrl, now).map_err(|e| format!("{e:?}"))?;
+    for (k, w) in path_waypoints().iter().enumerate() {
+        drive
+            .load_waypoints(&ctrl, k, &[*w])
+            .map_err(|e| format!("{e:?}"))?;
+    }
+    let total = drive
+        .start(&mut ctrl, now, &MoveRequest::Waypoints { count: 12 })
+        .map_err(|e| format!("{e:?}"))?;
+    let mut worst = 0.0f32;
+    for _ in 0..(total * 100.0) as usize + 50 {
+        for _ in 0..10 {
+            let v = ctrl.piezo_step(arm.film_voltage());
+            arm.set_piezo(v);
+            arm.step(1e-3);
+        }
+        let y = Measurement {
+            theta: arm.encoders(),
+            v_f: arm.film_voltage(),
+        };
+        let report = drive.step(&mut ctrl, now, Some(&y));
+        arm.set_torques(report.command.tau);
+        arm.set_enable(report.command.enable);
+        if let Some(l) = report.law {
+            worst = worst.max(l.error.x.abs().max(l.error.y.abs()));
+        }
+        now = now.next();
+    }
+    Ok(worst)
+}
+
+/// [`PATH`] in the core's type.
+fn path_waypoints() -> Vec<flexarm_core::drive::Waypoint<f32>> {
+    PATH.iter()
+        .map(|&(a, b, dt)| flexarm_core::drive::Waypoint {
+            theta: nalgebra::Vector2::new(a, b),
+            dt,
+        })
+        .collect()
+}
+
+/// A waypoint path over the link, from (0, 0): uploaded in two chunks (a chunk that leaves a
+/// gap and a move that names more waypoints than were uploaded are refused), then run and
+/// tracked within three times the host's run of the same path in the core's closed loop (4.5 s:
+/// at least 40 telemetry frames at the QEMU board's 10 records a second).
+fn waypoints(link: &mut Link) -> Result<(), String> {
+    let chunk = |first: u16, pts: &[(f32, f32, f32)]| Command::Waypoints {
+        first,
+        points: pts
+            .iter()
+            .map(|&(a, b, dt)| Waypoint { theta: [a, b], dt })
+            .collect(),
+    };
+    let go = Command::Move(Move::Waypoints { count: 12 });
+    let r = link.ask(chunk(1, &PATH[..8]))?;
+    check(
+        r == Reply::Refused(Refusal::Waypoints),
+        "a waypoint chunk that leaves a gap is refused",
+        format!("{r:?}"),
+    )?;
+    let r = link.ask(chunk(0, &PATH[..8]))?;
+    check(r == Reply::Done, "waypoints 0-7 uploaded", format!("{r:?}"))?;
+    let r = link.ask(go.clone())?;
+    check(
+        r == Reply::Refused(Refusal::Waypoints),
+        "a path of 12 with 8 uploaded is refused",
+        format!("{r:?}"),
+    )?;
+    let r = link.ask(chunk(8, &PATH[8..]))?;
+    check(r == Reply::Done, "waypoints 8-11 uploaded", format!("{r:?}"))?;
+    let first = link.telemetry.len();
+    let r = link.ask(go)?;
+    check(r == Reply::Done, "the waypoint path starts", format!("{r:?}"))?;
+    link.await_mode(Mode::Armed)?;
+    let during = &link.telemetry[first..];
+    let max_error = during
+        .iter()
+        .flat_map(|f| f.values.iter().take(2))
+        .fold(0.0f32, |m, e| m.max(e.abs()));
+    let end = during.last().map_or([9.0; 2], |f| [f.values[2], f.values[3]]);
+    let host = path_simulation()?;
+    let bound = 3.0 * host;
+    check(
+        during.len() >= 40 && max_error <= bound && (end[0] - 0.1).abs() < 0.01 && end[1].abs() < 0.01,
+        "the path's tracking error against the host's run of the same path, and its end",
+        format!(
+            "max |θ − θ_d| {max_error:.2e} rad over {} frames; host {host:.2e} rad, bound 3× = {bound:.2e}; ends at θ̂ = ({:.3}, {:.3}) rad",
+            during.len(),
+            end[0],
+            end[1]
+        ),
+    )
+}
+
+/// One block of the flood: garbage, an oversized frame, a corrupted frame, a frame whose CRC is
+/// right but whose message id is unknown, a request out of range, and valid pings and status
+/// requests (ids from [`FLOOD_IDS`]).
+fn flood_block(k: u16) -> Result<Vec<u8>, String> {
+    let mut out: Vec<u8> = (0..64u32).map(|i| (i * 73 % 251) as u8 | 1).collect();
+    out.push(0);
+    out.extend(std::iter::repeat_n(0x55u8, 300));
+    out.push(0);
+    let mut buf = [0u8; MAX_FRAME];
+    let mut frame = |msg: &dyn Fn(&mut [u8]) -> Result<usize, String>| -> Result<Vec<u8>, String> {
+        let n = msg(&mut buf)?;
+        Ok(buf[..n].to_vec())
+    };
+    let request = |command: Command, id: u16| {
+        move |b: &mut [u8]| {
+            encode(&Request { id, command: command.clone() }, b)
+                .map(<[u8]>::len)
+                .map_err(|e| e.to_string())
+        }
+    };
+    let mut corrupt = frame(&request(Command::Arm, FLOOD_IDS))?;
+    corrupt[1] ^= 0x04;
+    out.extend(corrupt);
+    // Valid postcard and CRC, but command number 200.
+    out.extend(frame(&|b: &mut [u8]| {
+        encode(&(FLOOD_IDS, 200u8), b)
+            .map(<[u8]>::len)
+            .map_err(|e| e.to_string())
+    })?);
+    out.extend(frame(&request(Command::Set(Param::Kc, -1.0), FLOOD_IDS + 3 * k))?);
+    out.extend(frame(&request(Command::Ping, FLOOD_IDS + 3 * k + 1))?);
+    out.extend(frame(&request(Command::Status, FLOOD_IDS + 3 * k + 2))?);
+    Ok(out)
+}
+
+/// A flood on the line during a move: from a second thread, blocks of [`flood_block`] as fast
+/// as the socket takes them (QEMU's USART has no baud rate: the guest's receive interrupt is
+/// the only pace, faster than the board's 921 600 baud) until the move has ended in the
+/// telemetry. The move completes and is tracked as the same move without the flood, no loop
+/// misses a deadline, and the firmware still answers.
+fn flood(link: &mut Link) -> Result<(), String> {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let before = match link.ask(Command::Status)? {
+        Reply::Status(s) => s,
+        r => return Err(format!("status: {r:?}")),
+    };
+    let (target, move_time, ramp) = ([0.8f32, -0.5], 2.0f32, 0.5f32);
+    let first = link.telemetry.len();
+    let r = link.ask(trapezoid(target, move_time, ramp))?;
+    check(r == Reply::Done, "a move for the flood starts", format!("{r:?}"))?;
+    let start_tick = before.ticks;
+    let end_tick = start_tick + (f64::from(move_time) * 100.0) as u64 + 100;
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut writer = link.stream.try_clone().map_err(|e| e.to_string())?;
+    let flag = Arc::clone(&stop);
+    let flooder = std::thread::spawn(move || -> Result<u64, String> {
+        let mut sent = 0u64;
+        let mut k = 0u16;
+        while !flag.load(Ordering::Relaxed) {
+            let block = flood_block(k % 1000)?;
+            writer.write_all(&block).map_err(|e| format!("flood: {e}"))?;
+            sent += block.len() as u64;
+            k = k.wrapping_add(1);
+        }
+        Ok(sent)
+    });
+    // Read (telemetry, the flood's replies) until the move is over in the telemetry.
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while link.telemetry.last().is_none_or(|f| f.tick < end_tick) {
+        if Instant::now() > deadline {
+            stop.store(true, Ordering::Relaxed);
+            return Err("the move under the flood did not end in 120 s".into());
+        }
+        match link.next()? {
+            Some(DeviceMsg::Telemetry(t)) => link.telemetry.push(t),
+            Some(DeviceMsg::Reply { id, .. }) if id >= FLOOD_IDS => link.flood_replies += 1,
+            Some(m) => return Err(format!("unexpected during the flood: {m:?}")),
+            None => return Err("the firmware closed the line during the flood".into()),
+        }
+    }
+    stop.store(true, Ordering::Relaxed);
+    let sent = flooder
+        .join()
+        .map_err(|_| "the flood thread panicked".to_string())??;
+    let after = match link.ask(Command::Status)? {
+        Reply::Status(s) => s,
+        r => return Err(format!("status: {r:?}")),
+    };
+    let during = &link.telemetry[first..];
+    let max_error = during
+        .iter()
+        .filter(|f| f.tick <= start_tick + (f64::from(move_time) * 100.0) as u64)
+        .flat_map(|f| f.values.iter().take(2))
+        .fold(0.0f32, |m, e| m.max(e.abs()));
+    let misses = |s: &flexarm_link::msg::Status| s.loads[0].misses + s.loads[1].misses;
+    let end = during.last().map_or([9.0; 2], |f| [f.values[2], f.values[3]]);
+    let traj = JointTrajectory::Trapezoid(Trapezoid {
+        start: nalgebra::Vector2::zeros(),
+        amplitude: nalgebra::Vector2::new(target[0], target[1]),
+        profile: Profile::new(move_time, ramp).map_err(|e| e.to_string())?,
+    });
+    let bound = 3.0 * simulated_error(&traj, 3.162)? as f32;
+    check(
+        after.mode == Mode::Armed
+            && after.fault.is_none()
+            && misses(&after) == misses(&before)
+            && link.flood_replies > 0
+            && max_error <= bound
+            && (end[0] - target[0]).abs() < 0.01
+            && (end[1] - target[1]).abs() < 0.01,
+        "a flood of bad and good frames during a move",
+        format!(
+            "{} kB sent, {} flood requests answered; the move ended {:?} at θ̂ = ({:.3}, {:.3}) rad, \
+             max |θ − θ_d| {max_error:.2e} rad (bound {bound:.2e}); deadline misses {}; telemetry records dropped {}",
+            sent / 1000,
+            link.flood_replies,
+            after.mode,
+            end[0],
+            end[1],
+            misses(&after) - misses(&before),
+            after.telemetry_dropped - before.telemetry_dropped
         ),
     )
 }
@@ -329,6 +617,7 @@ fn run(port: u16) -> Result<(), String> {
         next_id: 0,
         handshake_ids: 0,
         telemetry: Vec::new(),
+        flood_replies: 0,
     };
     // The handshake, repeated until the firmware answers: bytes that arrive before it has
     // enabled its USART are lost, as on a board that is still booting.
@@ -607,6 +896,14 @@ fn run(port: u16) -> Result<(), String> {
     circle(&mut link)?;
     let r = link.ask(trapezoid([0.0, 0.0], 4.0, 1.0))?;
     check(r == Reply::Done, "a new move after it", format!("{r:?}"))?;
+    link.await_mode(Mode::Armed)?;
+    waypoints(&mut link)?;
+    let r = link.ask(trapezoid([0.0, 0.0], 4.0, 1.0))?;
+    check(r == Reply::Done, "a move back", format!("{r:?}"))?;
+    link.await_mode(Mode::Armed)?;
+    flood(&mut link)?;
+    let r = link.ask(trapezoid([0.0, 0.0], 4.0, 1.0))?;
+    check(r == Reply::Done, "a move back after the flood", format!("{r:?}"))?;
     let r = link.ask(Command::Disarm)?;
     check(
         r == Reply::Done && link.mode()? == Mode::Disarmed,
