@@ -4,6 +4,14 @@
 //!   one executed instruction, so the counts are exact and repeatable (DWT CYCCNT reads 0 there).
 //! - Hardware: the DWT cycle counter (core cycles at 168 MHz).
 
+/// Counts per second: one per executed instruction under QEMU (1 ns each), the core clock on
+/// the board.
+pub const HZ: u32 = if cfg!(feature = "qemu") {
+    1_000_000_000
+} else {
+    168_000_000
+};
+
 /// Current count; differences are taken with `wrapping_sub`.
 #[cfg(feature = "qemu")]
 pub fn now() -> u32 {

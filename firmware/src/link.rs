@@ -8,10 +8,14 @@
 //! tunable parameters (`flexarm_core::tuning`) and the link watchdog's timeout; the fault
 //! recorder's pages. A move is validated outside the control loops' locks ([`start_move`]).
 //!
+//! The idle task calls these functions from several places; none is inlined (`#[inline(never)]`),
+//! which keeps each in flash once: 3.4 KiB less than letting the optimizer copy them.
+//!
 //! Hardware board: USART1 on PB6 (TX) and PB7 (RX) (the board configures the pins), 921 600
 //! baud, 8N1. QEMU board: the same USART, exposed by QEMU as a TCP socket
 //! (`scripts/qemu-link`).
 
+use core::sync::atomic::{AtomicU32, Ordering::Relaxed};
 use flexarm_core::Vector2;
 use flexarm_core::control::motor::MotorController;
 use flexarm_core::controller::Controller;
@@ -23,26 +27,37 @@ use flexarm_link::msg::{
     RecordedSample, Refusal, Reply, SAMPLES_PER_PAGE, Status, Telemetry,
 };
 use flexarm_link::{DeviceMsg, Request, VERSION};
+
 use stm32f4::stm32f405::USART1;
 
 use crate::config::{MOTOR_HZ, PIEZO_HZ};
 use crate::telemetry::Record;
 
-/// The channels this firmware streams (V_f and the loads are not yet).
-const STREAMED: u16 =
-    Channels::ERROR | Channels::THETA | Channels::DELTA | Channels::TAU | Channels::V_A;
-
 /// Baud rate of the hardware board's link.
 pub const BAUD: u32 = 921_600;
+
+/// Motor periods per telemetry frame of the subscription; 0 while nobody subscribed. Written by
+/// the idle task, read by the motor loop, which queues a record every this many periods.
+pub static STREAM_EVERY: AtomicU32 = AtomicU32::new(0);
+
+/// Whether a stream of `channels` every `decimation` motor periods fits in 80 % of the line
+/// (the rest for replies): `frame bytes · MOTOR_HZ / decimation ≤ 0.8 · BAUD / 10` (8N1).
+/// The QEMU board's socket has no baud rate; the same rule holds there, at its 100 Hz loop.
+fn fits_the_line(decimation: u16, channels: Channels) -> bool {
+    // At most 87 bytes × 1000 Hz × 100 and 8 × 921 600: both within a u32.
+    let per_second = channels.frame_bytes() as u32 * MOTOR_HZ / u32::from(decimation.max(1));
+    per_second * 100 <= 8 * BAUD
+}
 
 /// Bytes received and not yet decoded.
 pub const RX_CAPACITY: usize = 512;
 /// The queue between the receive interrupt and the idle task.
 pub type RxQueue = heapless::spsc::Queue<u8, RX_CAPACITY>;
 
-/// USART1's transmit side (the idle task's).
+/// USART1's transmit side (the idle task's), with its frame encoder.
 pub struct Serial {
     usart: USART1,
+    encoder: flexarm_link::Encoder,
 }
 
 /// USART1's receive side (the receive interrupt's).
@@ -84,18 +99,19 @@ impl Serial {
                 .rxneie()
                 .set_bit()
         });
-        Self { usart }
-    }
-
-    /// Sends `bytes`, waiting for the transmit register (idle task only).
-    pub fn write_all(&mut self, bytes: &[u8]) {
-        for b in bytes {
-            while self.usart.sr().read().txe().bit_is_clear() {}
-            // SAFETY: DR takes any 9-bit value; a byte is within it.
-            self.usart
-                .dr()
-                .write(|w| unsafe { w.dr().bits(u16::from(*b)) });
+        Self {
+            usart,
+            encoder: flexarm_link::Encoder::new(),
         }
+    }
+}
+
+/// Sends `bytes`, waiting for the transmit register (idle task only).
+fn write_all(usart: &USART1, bytes: &[u8]) {
+    for b in bytes {
+        while usart.sr().read().txe().bit_is_clear() {}
+        // SAFETY: DR takes any 9-bit value; a byte is within it.
+        usart.dr().write(|w| unsafe { w.dr().bits(u16::from(*b)) });
     }
 }
 
@@ -110,14 +126,20 @@ pub struct Io {
     pub ticks: u64,
     /// Telemetry records the motor loop could not queue.
     pub dropped: u32,
+    /// Bytes received since boot, and lost to a full queue.
+    pub rx_bytes: u32,
+    /// Bytes lost because the receive queue was full.
+    pub rx_lost: u32,
+    /// The stack's high-water mark [bytes] (measured for a status request only).
+    pub stack_used: u32,
 }
 
 /// One host session: the decoder, the subscription and the tunable parameters.
 pub struct Session {
     decoder: flexarm_link::Decoder,
     tuning: Tuning<f32>,
-    /// `(decimation, channels, countdown)` while subscribed.
-    subscription: Option<(u16, Channels, u16)>,
+    /// The channels while subscribed (the decimation is [`STREAM_EVERY`]).
+    subscription: Option<Channels>,
     seq: u32,
     dropped: u32,
 }
@@ -136,6 +158,7 @@ impl Session {
 
     /// Takes one received byte; returns a complete request. A frame that does not decode is
     /// dropped (it has no id to answer) and logged.
+    #[inline(never)]
     pub fn receive(&mut self, byte: u8) -> Option<Request> {
         match self.decoder.push_request(byte)? {
             Ok(req) => Some(req),
@@ -148,6 +171,7 @@ impl Session {
 
     /// The answer to `command`, applied to the controller and the drive (the caller holds
     /// both for the duration: a few microseconds). Moves are [`start_move`]'s.
+    #[inline(never)]
     pub fn answer(
         &mut self,
         command: Command,
@@ -172,6 +196,9 @@ impl Session {
                 loads: [load(&crate::stats::PIEZO), load(&crate::stats::MOTOR)],
                 telemetry_dropped: io.dropped.saturating_add(self.dropped),
                 link_stops: drive.link_stops(),
+                rx_bytes: io.rx_bytes,
+                rx_lost: io.rx_lost,
+                stack_used: io.stack_used,
             }),
             Command::Ping => Reply::Done,
             Command::Arm => done(drive.arm(ctrl, now)),
@@ -235,15 +262,21 @@ impl Session {
                 decimation,
                 channels,
             } => {
-                if decimation == 0 || !channels.is_valid() || channels.values() > MAX_CHANNELS {
+                if decimation == 0
+                    || !channels.is_valid()
+                    || channels.values() > MAX_CHANNELS
+                    || !fits_the_line(decimation, channels)
+                {
                     Reply::Refused(Refusal::OutOfRange)
                 } else {
-                    self.subscription = Some((decimation, channels, 0));
+                    self.subscription = Some(channels);
+                    STREAM_EVERY.store(u32::from(decimation), Relaxed);
                     Reply::Done
                 }
             }
             Command::Unsubscribe => {
                 self.subscription = None;
+                STREAM_EVERY.store(0, Relaxed);
                 Reply::Done
             }
             Command::Get(Param::LinkTimeout) => {
@@ -277,9 +310,9 @@ impl Session {
         }
     }
 
-    /// The telemetry frame of a motor-loop record, if subscribed and due. The records come at
-    /// the telemetry decimation of the motor loop (`config::TELEMETRY_EVERY`); the host's
-    /// decimation counts those.
+    /// The telemetry frame of a motor-loop record the motor loop marked for the stream (at the
+    /// subscription's decimation, [`STREAM_EVERY`]), while subscribed.
+    #[inline(never)]
     pub fn telemetry(&mut self, r: &Record) -> Option<DeviceMsg> {
         let Record::Sample {
             tick,
@@ -288,25 +321,30 @@ impl Session {
             delta,
             tau,
             v_a,
+            v_f,
+            stream: true,
             ..
         } = *r
         else {
             return None;
         };
-        let (decimation, channels, countdown) = self.subscription.as_mut()?;
-        if *countdown > 0 {
-            *countdown -= 1;
-            return None;
-        }
-        *countdown = *decimation - 1;
+        let channels = self.subscription?;
         let mut values = heapless::Vec::<f32, MAX_CHANNELS>::new();
         let c = channels.0;
+        let load =
+            |s: &crate::stats::TaskStats, hz: u32| s.mean() as f32 / (crate::clock::HZ / hz) as f32;
+        let loads = [
+            load(&crate::stats::PIEZO, PIEZO_HZ),
+            load(&crate::stats::MOTOR, MOTOR_HZ),
+        ];
         for (bit, v) in [
             (Channels::ERROR, &error[..]),
             (Channels::THETA, &theta[..]),
             (Channels::DELTA, &delta[..]),
             (Channels::TAU, &tau[..]),
             (Channels::V_A, &[v_a][..]),
+            (Channels::V_F, &[v_f][..]),
+            (Channels::LOAD, &loads[..]),
         ] {
             if c & bit != 0 {
                 let _ = values.extend_from_slice(v);
@@ -317,7 +355,7 @@ impl Session {
         Some(DeviceMsg::Telemetry(Telemetry {
             seq,
             tick,
-            channels: Channels(c & STREAMED),
+            channels,
             values,
         }))
     }
@@ -337,6 +375,7 @@ pub type Snapshot = (Drive<f32>, MotorController<f32>, Vector2<f32>);
 /// short lock; the plan is made outside every lock (a circle's 200 checked points take about a
 /// motor period on the board, which the motor loop must not wait for); then one short lock
 /// starts it, if the drive still holds the pose it was planned from.
+#[inline(never)]
 pub fn start_move(
     m: Move,
     ctrl: &mut impl rtic::Mutex<T = Controller<f32>>,
@@ -440,6 +479,7 @@ fn tune_refusal(e: TuneError) -> Refusal {
     }
 }
 
+#[inline(never)]
 fn hello() -> Hello {
     Hello {
         version: VERSION,
@@ -494,12 +534,13 @@ fn frame_error(e: flexarm_link::FrameError) -> &'static str {
     }
 }
 
-/// Encodes and sends one message.
+/// Encodes and sends one message (the encoder's buffers are the [`Serial`]'s, not the stack's).
+#[inline(never)]
 pub fn send(serial: &mut Serial, msg: &DeviceMsg) -> bool {
-    let mut buf = [0u8; flexarm_link::MAX_FRAME];
-    match flexarm_link::frame::encode_device(msg, &mut buf) {
-        Ok(f) => {
-            serial.write_all(f);
+    let Serial { usart, encoder } = serial;
+    match encoder.device(msg) {
+        Ok(frame) => {
+            write_all(usart, frame);
             true
         }
         Err(_) => false,

@@ -78,6 +78,8 @@ mod app {
     static PIEZO_HEARTBEAT: AtomicU32 = AtomicU32::new(0);
     /// Link bytes lost because the receive queue was full.
     static RX_OVERFLOWS: AtomicU32 = AtomicU32::new(0);
+    /// Link bytes received.
+    static RX_BYTES: AtomicU32 = AtomicU32::new(0);
     /// Telemetry records the motor loop could not queue.
     static TELEMETRY_DROPS: AtomicU32 = AtomicU32::new(0);
 
@@ -109,6 +111,7 @@ mod app {
         now: Ticks,
         move_clock: MoveClock,
         telemetry_countdown: u32,
+        stream_countdown: u32,
         last_heartbeat: u32,
         supervisor_ticks: u32,
         reported_fault: bool,
@@ -310,6 +313,7 @@ mod app {
                 // The boot move starts with the first motor period.
                 move_clock: MoveClock::new(config::START_TICK, MOTOR_HZ),
                 telemetry_countdown: 0,
+                stream_countdown: 0,
                 last_heartbeat: 0,
                 supervisor_ticks: 0,
                 reported_fault: false,
@@ -334,7 +338,9 @@ mod app {
         crate::stack::paint();
         loop {
             while let Some(r) = cx.local.consumer.dequeue() {
-                telemetry::print(&r);
+                if !matches!(r, Record::Sample { print: false, .. }) {
+                    telemetry::print(&r);
+                }
                 if let Record::Sample { tick, .. } = r {
                     *cx.local.last_tick = tick;
                 }
@@ -357,7 +363,12 @@ mod app {
                 *cx.local.overflows_seen = overflows;
                 defmt::warn!("link: {=u32} received bytes lost (queue full)", overflows);
             }
-            while let Some(byte) = cx.local.rx_consumer.dequeue() {
+            // At most a queue's worth of bytes, then the telemetry again: a flood on the line
+            // must not starve the stream.
+            for _ in 0..crate::link::RX_CAPACITY {
+                let Some(byte) = cx.local.rx_consumer.dequeue() else {
+                    break;
+                };
                 let Some(request) = cx.local.session.receive(byte) else {
                     continue;
                 };
@@ -373,6 +384,13 @@ mod app {
                     amplifier_fault,
                     ticks: *cx.local.last_tick,
                     dropped: TELEMETRY_DROPS.load(Relaxed),
+                    rx_bytes: RX_BYTES.load(Relaxed),
+                    rx_lost: RX_OVERFLOWS.load(Relaxed),
+                    // A scan of the stack region, for a status only (outside every lock).
+                    stack_used: match request.command {
+                        flexarm_link::Command::Status => crate::stack::used(),
+                        _ => 0,
+                    },
                 };
                 #[cfg(feature = "link-session")]
                 if let flexarm_link::Command::TestAmplifierFault(on) = request.command {
@@ -405,7 +423,9 @@ mod app {
             if cx.shared.board.lock(|b| b.run.finished) {
                 finish(&mut cx);
             }
-            cortex_m::asm::wfi();
+            if !cx.local.rx_consumer.ready() {
+                cortex_m::asm::wfi();
+            }
         }
     }
 
@@ -448,7 +468,7 @@ mod app {
     }
 
     /// Motor loop: encoders and film in, observer, Eq. 7, torques out.
-    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, fault_sent, amplifier, enabled], shared = [ctrl, drive, recorder, board])]
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, stream_countdown, fault_sent, amplifier, enabled], shared = [ctrl, drive, recorder, board])]
     fn motor_loop(mut cx: motor_loop::Context) {
         let start = clock::now();
         cx.local.tim3.sr().write(|w| w.uif().clear_bit());
@@ -461,10 +481,16 @@ mod app {
             .shared
             .board
             .lock(|b| (b.encoders(), b.latest_film_voltage(), b.amplifier_fault()));
-        // A telemetry sample this period?
-        let sample = *cx.local.telemetry_countdown == 0;
+        // A telemetry sample this period, for defmt and for the link's stream?
+        let print = *cx.local.telemetry_countdown == 0;
         *cx.local.telemetry_countdown = match *cx.local.telemetry_countdown {
             0 => config::TELEMETRY_EVERY - 1,
+            n => n - 1,
+        };
+        let every = crate::link::STREAM_EVERY.load(Relaxed);
+        let stream = every != 0 && *cx.local.stream_countdown == 0;
+        *cx.local.stream_countdown = match *cx.local.stream_countdown {
+            0 => every.saturating_sub(1),
             n => n - 1,
         };
         // The fault line counts only while the amplifiers are enabled (debounced, after settling).
@@ -518,7 +544,7 @@ mod app {
                 fault,
             });
         }
-        if sample {
+        if print || stream {
             push(Record::Sample {
                 tick: tick.0,
                 t,
@@ -527,6 +553,9 @@ mod app {
                 delta: [q.z, q.w],
                 tau: [cmd.tau.x, cmd.tau.y],
                 v_a: cmd.v_a,
+                v_f,
+                print,
+                stream,
             });
         }
 
@@ -572,6 +601,7 @@ mod app {
     #[task(binds = USART1, priority = 1, local = [rx, rx_producer])]
     fn link_rx(cx: link_rx::Context) {
         while let Some(b) = cx.local.rx.read() {
+            RX_BYTES.fetch_add(1, Relaxed);
             if cx.local.rx_producer.enqueue(b).is_err() {
                 RX_OVERFLOWS.fetch_add(1, Relaxed);
             }

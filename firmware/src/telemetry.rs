@@ -1,4 +1,5 @@
-//! Telemetry records, queued by the control loops and printed by the lowest-priority task.
+//! Telemetry records, queued by the motor loop for the lowest-priority task, which prints them
+//! (defmt, ten a second) and streams them on the command link (at the host's decimation).
 
 use flexarm_core::Fault;
 
@@ -21,6 +22,12 @@ pub enum Record {
         tau: [f32; 2],
         /// Piezo command [V].
         v_a: f32,
+        /// Film voltage [V].
+        v_f: f32,
+        /// Printed with defmt (every `config::TELEMETRY_EVERY`-th period).
+        print: bool,
+        /// Streamed on the link (every `link::STREAM_EVERY`-th period while subscribed).
+        stream: bool,
     },
     /// The controller latched a fault.
     Fault {
@@ -33,7 +40,7 @@ pub enum Record {
     },
 }
 
-/// Capacity of the queue (records).
+/// Capacity of the queue (records): 64 motor periods of a stream at decimation 1.
 pub const CAPACITY: usize = 64;
 /// The queue between the control loops and the telemetry task.
 pub type Queue = heapless::spsc::Queue<Record, CAPACITY>;

@@ -48,7 +48,16 @@ impl core::fmt::Display for FrameError {
 
 /// Writes `msg` as one frame into `out` and returns the frame (terminator included).
 pub fn encode<'a, T: Serialize>(msg: &T, out: &'a mut [u8]) -> Result<&'a [u8], FrameError> {
-    let mut raw = [0u8; MAX_MESSAGE + 4];
+    encode_with(msg, &mut [0u8; MAX_MESSAGE + 4], out)
+}
+
+/// [`encode`] with the serialized message in `raw`: a caller without the stack for it keeps
+/// both buffers in static memory ([`Encoder`]).
+fn encode_with<'a, T: Serialize>(
+    msg: &T,
+    raw: &mut [u8; MAX_MESSAGE + 4],
+    out: &'a mut [u8],
+) -> Result<&'a [u8], FrameError> {
     let n = postcard::to_slice(msg, &mut raw[..MAX_MESSAGE])
         .map_err(|_| FrameError::TooLarge)?
         .len();
@@ -131,13 +140,34 @@ impl Decoder {
     }
 }
 
-/// [`encode`] for the firmware's messages, compiled once in this crate.
-#[inline(never)]
-pub fn encode_device<'a>(
-    msg: &crate::DeviceMsg,
-    out: &'a mut [u8],
-) -> Result<&'a [u8], FrameError> {
-    encode(msg, out)
+/// The firmware's encoder: its two buffers (about 500 bytes) live wherever the encoder does, in
+/// a static on the firmware, instead of on the stack of each call.
+#[derive(Clone, Debug)]
+pub struct Encoder {
+    raw: [u8; MAX_MESSAGE + 4],
+    out: [u8; MAX_FRAME],
+}
+
+impl Default for Encoder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Encoder {
+    /// Empty buffers.
+    pub const fn new() -> Self {
+        Self {
+            raw: [0; MAX_MESSAGE + 4],
+            out: [0; MAX_FRAME],
+        }
+    }
+
+    /// One frame of a firmware message (terminator included); compiled once, in this crate.
+    #[inline(never)]
+    pub fn device(&mut self, msg: &crate::DeviceMsg) -> Result<&[u8], FrameError> {
+        encode_with(msg, &mut self.raw, &mut self.out)
+    }
 }
 
 impl Decoder {

@@ -29,9 +29,9 @@
 pub mod frame;
 pub mod msg;
 
-pub use frame::{Decoder, FrameError, MAX_FRAME, encode};
+pub use frame::{Decoder, Encoder, FrameError, MAX_FRAME, encode};
 pub use msg::{Command, DeviceMsg, Reply, Request};
 
 /// The protocol version: a host and a firmware talk only when they agree on it (the
 /// handshake refuses otherwise). Bumped whenever a message changes shape.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;

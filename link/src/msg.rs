@@ -56,7 +56,8 @@ pub enum Command {
     Get(Param),
     /// Write a tunable parameter (validated; refused while moving).
     Set(Param, f32),
-    /// Stream telemetry: every `decimation`-th motor period, the `channels` selected.
+    /// Stream telemetry: every `decimation`-th motor period, the `channels` selected. Refused
+    /// when the stream would take more than 80 % of the line (on the board: 921 600 baud).
     Subscribe {
         /// Motor periods per frame, at least 1.
         decimation: u16,
@@ -157,7 +158,8 @@ impl Channels {
     pub const V_A: u16 = 1 << 4;
     /// Film voltage V_f [V] (1).
     pub const V_F: u16 = 1 << 5;
-    /// Loads of the piezo and motor loops [fraction of the period] (2).
+    /// Loads of the piezo and motor loops: the mean execution time of the last supervisor
+    /// window over the period [fraction] (2).
     pub const LOAD: u16 = 1 << 6;
     /// Every channel.
     pub const ALL: u16 = (1 << 7) - 1;
@@ -174,6 +176,16 @@ impl Channels {
             i += 1;
         }
         n
+    }
+
+    /// The longest frame of a [`Telemetry`] message with these channels, on the wire [bytes]:
+    /// the message's tag (1), the sequence number (5 as a varint at most), the tick (7: ticks
+    /// below 2⁴⁹, 17 800 years of a 1 kHz loop), the channel bits (3), the values' count (1)
+    /// and the values (4 each), then the CRC (4), COBS's overhead (1 for a frame under 254
+    /// bytes) and the terminator (1). Tested to be exact for the largest sequence number and a
+    /// tick of 2⁴⁹ − 1.
+    pub const fn frame_bytes(self) -> usize {
+        1 + 5 + 7 + 3 + 1 + 4 * self.values() + 4 + 1 + 1
     }
 
     /// Whether these channels name only known bits.
@@ -312,6 +324,12 @@ pub struct Status {
     pub telemetry_dropped: u32,
     /// Moves the link watchdog stopped because the host fell silent.
     pub link_stops: u32,
+    /// Bytes the link has received since boot.
+    pub rx_bytes: u32,
+    /// Received bytes lost because the receive queue was full.
+    pub rx_lost: u32,
+    /// The stack's high-water mark since boot [bytes].
+    pub stack_used: u32,
 }
 
 /// One telemetry frame.

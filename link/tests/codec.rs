@@ -120,9 +120,10 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
         load,
         any::<u32>(),
         any::<u32>(),
+        any::<[u32; 3]>(),
     )
         .prop_map(
-            |(mode, fault, ticks, a, b, telemetry_dropped, link_stops)| {
+            |(mode, fault, ticks, a, b, telemetry_dropped, link_stops, [rx, lost, stack])| {
                 Reply::Status(Status {
                     mode,
                     fault,
@@ -130,6 +131,9 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
                     loads: [a, b],
                     telemetry_dropped,
                     link_stops,
+                    rx_bytes: rx,
+                    rx_lost: lost,
+                    stack_used: stack,
                 })
             },
         );
@@ -294,6 +298,9 @@ fn the_largest_of_every_message_fits_a_frame() {
                 loads: [load; 2],
                 telemetry_dropped: u32::MAX,
                 link_stops: u32::MAX,
+                rx_bytes: u32::MAX,
+                rx_lost: u32::MAX,
+                stack_used: u32::MAX,
             }),
         },
     ];
@@ -318,6 +325,41 @@ fn the_largest_of_every_message_fits_a_frame() {
     largest = largest.max(frame(&chunk).len());
     println!("largest frame: {largest} bytes of {MAX_FRAME}");
     assert!(largest <= MAX_FRAME);
+}
+
+/// The telemetry frame's size formula is exact for the largest counters, and what the board's
+/// line carries: the figures docs/link.md quotes.
+#[test]
+fn telemetry_frames_are_the_size_the_firmware_budgets() {
+    for bits in [
+        Channels::ERROR,
+        Channels::ERROR | Channels::THETA,
+        Channels::ALL,
+    ] {
+        let c = Channels(bits);
+        let values =
+            heapless::Vec::from_slice(&[-1.234_567e-3f32; MAX_CHANNELS][..c.values()]).unwrap();
+        let msg = DeviceMsg::Telemetry(Telemetry {
+            seq: u32::MAX,
+            tick: (1 << 49) - 1,
+            channels: Channels(u16::MAX),
+            values,
+        });
+        assert_eq!(frame(&msg).len(), c.frame_bytes(), "channels {bits:#x}");
+    }
+    let all = Channels(Channels::ALL);
+    // 921 600 baud, 8N1: 10 bits a byte; 80 % of the line for telemetry.
+    let per_second = 0.8 * 92_160.0 / all.frame_bytes() as f64;
+    println!(
+        "every channel: {} values, {} bytes a frame, {per_second:.0} frames/s in 80 % of 921 600 baud",
+        all.values(),
+        all.frame_bytes()
+    );
+    assert_eq!((all.values(), all.frame_bytes()), (12, 71));
+    assert!(
+        per_second >= 1000.0,
+        "every channel at the board's 1 kHz motor loop"
+    );
 }
 
 #[test]
