@@ -537,8 +537,7 @@ impl<T: Real> Drive<T> {
             let (a, b, c) = (at(k - 1), at(k), at(k + 1));
             let s_a = (b.theta - a.theta) / b.dt;
             let s_b = (c.theta - b.theta) / c.dt;
-            Vector2::from_fn(|j, _| {
-                let (x, y) = (s_a[j], s_b[j]);
+            s_a.zip_map(&s_b, |x, y| {
                 if x * y <= T::zero() {
                     return T::zero();
                 }

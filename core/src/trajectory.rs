@@ -404,30 +404,28 @@ impl<T: Real> Cubic<T> {
     /// is quadratic in `t` (its ends and its vertex), the acceleration linear (its ends).
     pub fn peaks(&self) -> (Vector2<T>, Vector2<T>) {
         let d = self.duration;
-        let delta = self.end - self.start;
-        let (m0, m1) = (self.v0 * d, self.v1 * d);
         let (two, three, four, six) = (T::c(2.0), T::c(3.0), T::c(4.0), T::c(6.0));
-        let mut v = Vector2::zeros();
-        let mut a = Vector2::zeros();
-        for j in 0..2 {
-            // d·θ̇ = α s² + β s + γ.
-            let alpha = -six * delta[j] + three * m0[j] + three * m1[j];
-            let beta = six * delta[j] - four * m0[j] - two * m1[j];
-            let mut peak = m0[j].abs().max(m1[j].abs());
+        // One joint: its displacement Δ and its end speeds times T, m0 and m1.
+        let joint = |delta: T, m0: T, m1: T| {
+            // d·θ̇ = α s² + β s + m0.
+            let alpha = -six * delta + three * m0 + three * m1;
+            let beta = six * delta - four * m0 - two * m1;
+            let mut peak = m0.abs().max(m1.abs());
             if alpha != T::zero() {
                 let s = -beta / (two * alpha);
                 if s > T::zero() && s < T::one() {
-                    peak = peak.max((alpha * s * s + beta * s + m0[j]).abs());
+                    peak = peak.max((alpha * s * s + beta * s + m0).abs());
                 }
             }
-            v[j] = peak / d;
             // d²·θ̈ at s = 0 and s = 1.
-            a[j] = beta
-                .abs()
-                .max((-six * delta[j] + two * m0[j] + four * m1[j]).abs())
-                / (d * d);
-        }
-        (v, a)
+            let accel = beta.abs().max((-six * delta + two * m0 + four * m1).abs());
+            (peak / d, accel / (d * d))
+        };
+        let delta = self.end - self.start;
+        let (m0, m1) = (self.v0 * d, self.v1 * d);
+        let (v1, a1) = joint(delta.x, m0.x, m1.x);
+        let (v2, a2) = joint(delta.y, m0.y, m1.y);
+        (Vector2::new(v1, v2), Vector2::new(a1, a2))
     }
 }
 

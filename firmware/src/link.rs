@@ -22,11 +22,12 @@ use flexarm_core::controller::Controller;
 use flexarm_core::drive::{self, Drive, MoveRequest, Refused, Waypoint};
 use flexarm_core::observer::Measurement;
 use flexarm_core::tuning::{Tunable, TuneError, Tuning};
+use flexarm_link::msg::DeviceMsgRef;
 use flexarm_link::msg::{
     Board, Channels, Command, FaultPage, Hello, Load, MAX_CHANNELS, Mode, Move, Param,
     RecordedSample, Refusal, Reply, SAMPLES_PER_PAGE, Status, Telemetry,
 };
-use flexarm_link::{DeviceMsg, Request, VERSION};
+use flexarm_link::{Request, VERSION};
 
 use stm32f4::stm32f405::USART1;
 
@@ -313,7 +314,7 @@ impl Session {
     /// The telemetry frame of a motor-loop record the motor loop marked for the stream (at the
     /// subscription's decimation, [`STREAM_EVERY`]), while subscribed.
     #[inline(never)]
-    pub fn telemetry(&mut self, r: &Record) -> Option<DeviceMsg> {
+    pub fn telemetry(&mut self, r: &Record) -> Option<Telemetry> {
         let Record::Sample {
             tick,
             error,
@@ -352,12 +353,12 @@ impl Session {
         }
         let seq = self.seq;
         self.seq = self.seq.wrapping_add(1);
-        Some(DeviceMsg::Telemetry(Telemetry {
+        Some(Telemetry {
             seq,
             tick,
             channels,
             values,
-        }))
+        })
     }
 
     /// A telemetry frame could not be sent (counted; its sequence number is spent).
@@ -536,7 +537,7 @@ fn frame_error(e: flexarm_link::FrameError) -> &'static str {
 
 /// Encodes and sends one message (the encoder's buffers are the [`Serial`]'s, not the stack's).
 #[inline(never)]
-pub fn send(serial: &mut Serial, msg: &DeviceMsg) -> bool {
+pub fn send(serial: &mut Serial, msg: &DeviceMsgRef<'_>) -> bool {
     let Serial { usart, encoder } = serial;
     match encoder.device(msg) {
         Ok(frame) => {

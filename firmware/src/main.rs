@@ -344,8 +344,11 @@ mod app {
                 if let Record::Sample { tick, .. } = r {
                     *cx.local.last_tick = tick;
                 }
-                if let Some(msg) = cx.local.session.telemetry(&r)
-                    && !link::send(cx.local.serial, &msg)
+                if let Some(t) = cx.local.session.telemetry(&r)
+                    && !link::send(
+                        cx.local.serial,
+                        &flexarm_link::msg::DeviceMsgRef::Telemetry(&t),
+                    )
                 {
                     cx.local.session.dropped();
                 }
@@ -372,52 +375,7 @@ mod app {
                 let Some(request) = cx.local.session.receive(byte) else {
                     continue;
                 };
-                let (y, amplifier_fault) = cx.shared.board.lock(|b| {
-                    let y = Measurement {
-                        theta: b.encoders(),
-                        v_f: b.latest_film_voltage(),
-                    };
-                    (y, b.amplifier_fault())
-                });
-                let io = link::Io {
-                    y,
-                    amplifier_fault,
-                    ticks: *cx.local.last_tick,
-                    dropped: TELEMETRY_DROPS.load(Relaxed),
-                    rx_bytes: RX_BYTES.load(Relaxed),
-                    rx_lost: RX_OVERFLOWS.load(Relaxed),
-                    // A scan of the stack region, for a status only (outside every lock).
-                    stack_used: match request.command {
-                        flexarm_link::Command::Status => crate::stack::used(),
-                        _ => 0,
-                    },
-                };
-                #[cfg(feature = "link-session")]
-                if let flexarm_link::Command::TestAmplifierFault(on) = request.command {
-                    cx.shared.board.lock(|b| b.inject_amplifier_fault(on));
-                }
-                let session = &mut cx.local.session;
-                let reply = match request.command {
-                    flexarm_link::Command::Move(m) => link::start_move(
-                        m,
-                        &mut cx.shared.ctrl,
-                        &mut cx.shared.drive,
-                        cx.local.snapshot,
-                    ),
-                    command => (
-                        &mut cx.shared.ctrl,
-                        &mut cx.shared.drive,
-                        &mut cx.shared.recorder,
-                    )
-                        .lock(|c, d, r| session.answer(command, c, d, r, &io)),
-                };
-                link::send(
-                    cx.local.serial,
-                    &flexarm_link::DeviceMsg::Reply {
-                        id: request.id,
-                        reply,
-                    },
-                );
+                serve(&mut cx, request);
             }
             #[cfg(all(feature = "qemu", not(feature = "link-session")))]
             if cx.shared.board.lock(|b| b.run.finished) {
@@ -427,6 +385,60 @@ mod app {
                 cortex_m::asm::wfi();
             }
         }
+    }
+
+    /// Answers one request of the command link (not inlined: its frame, with the request and
+    /// the reply, is on the stack only while it runs, not under every other path of `idle`).
+    #[inline(never)]
+    fn serve(cx: &mut idle::Context, request: flexarm_link::Request) {
+        use crate::link;
+        use rtic::mutex::prelude::*;
+        let (y, amplifier_fault) = cx.shared.board.lock(|b| {
+            let y = Measurement {
+                theta: b.encoders(),
+                v_f: b.latest_film_voltage(),
+            };
+            (y, b.amplifier_fault())
+        });
+        let io = link::Io {
+            y,
+            amplifier_fault,
+            ticks: *cx.local.last_tick,
+            dropped: TELEMETRY_DROPS.load(Relaxed),
+            rx_bytes: RX_BYTES.load(Relaxed),
+            rx_lost: RX_OVERFLOWS.load(Relaxed),
+            // A scan of the stack region, for a status only (outside every lock).
+            stack_used: match request.command {
+                flexarm_link::Command::Status => crate::stack::used(),
+                _ => 0,
+            },
+        };
+        #[cfg(feature = "link-session")]
+        if let flexarm_link::Command::TestAmplifierFault(on) = request.command {
+            cx.shared.board.lock(|b| b.inject_amplifier_fault(on));
+        }
+        let session = &mut cx.local.session;
+        let reply = match request.command {
+            flexarm_link::Command::Move(m) => link::start_move(
+                m,
+                &mut cx.shared.ctrl,
+                &mut cx.shared.drive,
+                cx.local.snapshot,
+            ),
+            command => (
+                &mut cx.shared.ctrl,
+                &mut cx.shared.drive,
+                &mut cx.shared.recorder,
+            )
+                .lock(|c, d, r| session.answer(command, c, d, r, &io)),
+        };
+        link::send(
+            cx.local.serial,
+            &flexarm_link::msg::DeviceMsgRef::Reply {
+                id: request.id,
+                reply: &reply,
+            },
+        );
     }
 
     #[cfg(feature = "qemu")]

@@ -165,7 +165,7 @@ impl Encoder {
 
     /// One frame of a firmware message (terminator included); compiled once, in this crate.
     #[inline(never)]
-    pub fn device(&mut self, msg: &crate::DeviceMsg) -> Result<&[u8], FrameError> {
+    pub fn device(&mut self, msg: &crate::msg::DeviceMsgRef<'_>) -> Result<&[u8], FrameError> {
         encode_with(msg, &mut self.raw, &mut self.out)
     }
 }

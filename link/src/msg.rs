@@ -194,6 +194,21 @@ impl Channels {
     }
 }
 
+/// [`DeviceMsg`] by reference, for a sender that should not copy a reply or a frame into a new
+/// message (the firmware, short of stack): the same bytes on the wire (tested).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub enum DeviceMsgRef<'a> {
+    /// [`DeviceMsg::Reply`].
+    Reply {
+        /// The request's id.
+        id: u16,
+        /// The answer.
+        reply: &'a Reply,
+    },
+    /// [`DeviceMsg::Telemetry`].
+    Telemetry(&'a Telemetry),
+}
+
 /// From the firmware.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum DeviceMsg {

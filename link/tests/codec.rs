@@ -327,6 +327,39 @@ fn the_largest_of_every_message_fits_a_frame() {
     assert!(largest <= MAX_FRAME);
 }
 
+/// A message sent by reference is the same frame as the message.
+#[test]
+fn a_message_by_reference_is_the_same_frame() {
+    let reply = Reply::Status(Status {
+        mode: Mode::Moving,
+        fault: Some(3),
+        ticks: 123_456_789,
+        loads: [Load::default(); 2],
+        telemetry_dropped: 1,
+        link_stops: 2,
+        rx_bytes: 300,
+        rx_lost: 4,
+        stack_used: 1800,
+    });
+    let t = Telemetry {
+        seq: 9,
+        tick: 1 << 40,
+        channels: Channels(Channels::ALL),
+        values: heapless::Vec::from_slice(&[1.5; 12]).unwrap(),
+    };
+    let mut e = flexarm_link::Encoder::new();
+    let by_ref = e
+        .device(&DeviceMsgRef::Reply {
+            id: 7,
+            reply: &reply,
+        })
+        .unwrap()
+        .to_vec();
+    assert_eq!(by_ref, frame(&DeviceMsg::Reply { id: 7, reply }));
+    let by_ref = e.device(&DeviceMsgRef::Telemetry(&t)).unwrap().to_vec();
+    assert_eq!(by_ref, frame(&DeviceMsg::Telemetry(t)));
+}
+
 /// The telemetry frame's size formula is exact for the largest counters, and what the board's
 /// line carries: the figures docs/link.md quotes.
 #[test]

@@ -263,6 +263,65 @@ fn call_piezo_step(c: &mut Controller<f32>, v_f: &f32) -> (f32, u32) {
     timed((c, v_f), |(c, v_f)| c.piezo_step(*v_f))
 }
 
+/// The command link's receive path as the firmware runs it: the receive interrupt's queue (512
+/// bytes, the firmware's `link::RX_CAPACITY`) and the idle task's decoder. The interrupt's two
+/// register reads are not in it (QEMU's USART is not the board's).
+struct Rx {
+    queue: heapless::spsc::Queue<u8, 512>,
+    decoder: flexarm_link::Decoder,
+}
+
+/// One request frame on the wire.
+struct Frame {
+    bytes: [u8; flexarm_link::MAX_FRAME],
+    len: usize,
+}
+
+/// A move request of the state's pose, framed: every one is [`RX_FRAME`] bytes long (postcard's
+/// floats are 4 bytes, the id is fixed, and COBS adds one byte to any body under 254).
+fn rx_frame(s: &State) -> Frame {
+    let request = flexarm_link::Request {
+        id: 0x1234,
+        command: flexarm_link::Command::Move(flexarm_link::msg::Move::Trapezoid {
+            target: [s.q.x, s.q.y],
+            move_time: 2.0 + s.t,
+            ramp_time: 0.5,
+        }),
+    };
+    let mut f = Frame {
+        bytes: [0; flexarm_link::MAX_FRAME],
+        len: 0,
+    };
+    f.len = flexarm_link::encode(&request, &mut f.bytes).map_or(0, <[u8]>::len);
+    f
+}
+
+/// Bytes of [`rx_frame`]'s frames.
+const RX_FRAME: usize = 26;
+
+/// Each byte of `frame` through the receive interrupt's queue into the decoder, as the idle task
+/// takes them; the result is the decoded move's first target.
+#[inline(never)]
+fn call_rx_frame(rx: &mut Rx, frame: &Frame) -> (f32, u32) {
+    timed((rx, frame), |(rx, frame)| {
+        let mut out = f32::NAN;
+        for &b in frame.bytes.iter().take(frame.len) {
+            let _ = rx.queue.enqueue(b);
+            while let Some(b) = rx.queue.dequeue() {
+                if let Some(Ok(r)) = rx.decoder.push_request(b)
+                    && let flexarm_link::Command::Move(flexarm_link::msg::Move::Trapezoid {
+                        target,
+                        ..
+                    }) = r.command
+                {
+                    out = target[0];
+                }
+            }
+        }
+        out
+    })
+}
+
 /// Counts of `f` (a timed call) over `states`, overhead subtracted.
 fn measure<R>(states: &[State], overhead: u32, mut f: impl FnMut(&State) -> (R, u32)) -> Stat {
     let mut s = Stat::new();
@@ -464,6 +523,40 @@ fn main() -> ! {
             call_piezo_step(black_box(&mut c), &s.y.v_f)
         });
         ok &= report(set, "piezo_step", &piezo, gated(BUDGET_PIEZO_STEP_MEAN));
+        // The link's receive path, a whole request frame; its cost per byte is the figure.
+        let mut rx = Rx {
+            queue: heapless::spsc::Queue::new(),
+            decoder: flexarm_link::Decoder::new(),
+        };
+        let mut wrong = 0u32;
+        let mut frames = Stat::new();
+        for s in states.iter() {
+            let frame = rx_frame(s);
+            wrong += u32::from(frame.len != RX_FRAME);
+            let (x, n) = call_rx_frame(black_box(&mut rx), &frame);
+            wrong += u32::from(x != s.q.x);
+            frames.add(n.saturating_sub(overhead));
+        }
+        if wrong > 0 {
+            defmt::error!(
+                "link_rx_frame: {=u32} frames not of {=usize} bytes or not decoded",
+                wrong,
+                RX_FRAME
+            );
+            ok = false;
+        }
+        ok &= report(
+            set,
+            "link_rx_frame",
+            &frames,
+            gated(BUDGET_LINK_RX_FRAME_MEAN),
+        );
+        defmt::info!(
+            "BENCH {=str} link receive path: {=u32} instructions per byte (frames of {=usize} bytes)",
+            set,
+            frames.mean() / RX_FRAME as u32,
+            RX_FRAME
+        );
     }
     exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
     loop {
