@@ -34,8 +34,10 @@ use crate::control::motor::MotorController;
 use crate::controller::{Controller, MotorReport};
 use crate::fault::Fault;
 use crate::kinematics::{Elbow, Planar2};
+use crate::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use crate::observer::Measurement;
 use crate::real::Real;
+use crate::supervisor::Command;
 use crate::time::{MoveClock, Ticks};
 use crate::trajectory::{Circle, Cubic, JointTrajectory, Profile, Trapezoid};
 
@@ -209,6 +211,15 @@ pub struct Drive<T> {
     path_from: Vector2<T>,
     segment: usize,
     segments: usize,
+    /// The motion checks' thresholds (`crate::motion`).
+    pub motion: MotionLimits<T>,
+    monitor: MotionMonitor<T>,
+    /// A category-1 fault whose controlled stop runs: latched when the stop ends.
+    pending: Option<Fault>,
+    /// The torque limits the motors are rated for, before any derating [N·m].
+    rated: Vector2<T>,
+    /// The last step derated them.
+    derated: bool,
 }
 
 impl<T: Real> Drive<T> {
@@ -233,6 +244,11 @@ impl<T: Real> Drive<T> {
             path_from: Vector2::zeros(),
             segment: 0,
             segments: 0,
+            motion: MotionLimits::default_for(motor_hz),
+            monitor: MotionMonitor::new(),
+            pending: None,
+            rated: ctrl.motor.limits.tau_max,
+            derated: false,
         }
     }
 
@@ -268,15 +284,81 @@ impl<T: Real> Drive<T> {
         y: Option<&Measurement<T>>,
     ) -> MotorReport<T> {
         self.advance(ctrl, now);
-        let report = if ctrl.armed() {
+        self.derate(ctrl);
+        let mut report = if ctrl.armed() {
             ctrl.motor_step(self.time(now), y)
         } else {
             ctrl.idle_step(y)
         };
+        if let (Some(y), Some(law), true) = (y, report.law, ctrl.armed()) {
+            // θ_d = θ̂ − (θ̂ − θ_d): the law's error is on the estimate.
+            let q = ctrl.estimate();
+            let sample = MotionSample {
+                theta: y.theta,
+                theta_d: Vector2::new(q.0.x, q.0.y) - law.error,
+                speed: Vector2::new(q.1.x, q.1.y),
+                tau: report.command.tau,
+            };
+            match self.monitor.check(&self.motion, &sample) {
+                Verdict::Clear => {}
+                Verdict::Trip(f) => {
+                    ctrl.trip(f);
+                    report.command = Command::safe();
+                }
+                Verdict::Stop(f) => {
+                    if self.pending.is_none() && self.stop(ctrl, now).is_ok() {
+                        self.pending = Some(f);
+                    }
+                }
+            }
+        }
+        self.monitor
+            .heat(&self.motion, report.command.tau, ctrl.motor_period);
         self.tick(now);
+        // A category-1 stop has ended: now the safe state.
+        if let (Some(f), Mode::Armed) = (self.pending, self.mode) {
+            ctrl.trip(f);
+            self.pending = None;
+        }
         self.watch_link(ctrl, now);
         self.next = now.next();
         report
+    }
+
+    /// The motors' heat lowers the torque limit (`crate::motion`): the controller saturates at
+    /// the derated limit while a motor is hot, and at the rated one again once it has cooled.
+    /// The rated limit follows the controller's while no motor is hot (a `Set` of the torque
+    /// limit at rest); a `Set` while a motor is hot is overridden until it cools.
+    fn derate(&mut self, ctrl: &mut Controller<T>) {
+        let hot = self.monitor.heat.x > self.motion.thermal.derate
+            || self.monitor.heat.y > self.motion.thermal.derate;
+        if hot {
+            ctrl.motor.limits.tau_max = self.monitor.torque_limit(&self.motion, self.rated);
+        } else if ctrl.motor.limits.tau_max != self.rated {
+            // Cooled down after derating, or a new rated limit set at rest.
+            if self.derated {
+                ctrl.motor.limits.tau_max = self.rated;
+            } else {
+                self.rated = ctrl.motor.limits.tau_max;
+            }
+        }
+        self.derated = hot;
+    }
+
+    /// The motion checks' state: the motors' heat (`crate::motion`).
+    pub fn monitor(&self) -> &MotionMonitor<T> {
+        &self.monitor
+    }
+
+    /// Sets the motors' I²t states (tests: a hot motor without minutes of simulation).
+    #[doc(hidden)]
+    pub fn heat_for_test(&mut self, heat: Vector2<T>) {
+        self.monitor.heat = heat;
+    }
+
+    /// The category-1 fault whose controlled stop runs, if any.
+    pub fn pending(&self) -> Option<Fault> {
+        self.pending
     }
 
     /// A running path past its segment's end enters the next segment, at the time past the
@@ -340,6 +422,7 @@ impl<T: Real> Drive<T> {
             let q = ctrl.estimate().0;
             ctrl.trajectory = JointTrajectory::Hold(Vector2::new(q.x, q.y));
             self.restart(now, T::zero(), T::zero());
+            self.monitor.restart();
             ctrl.set_armed(true);
             self.mode = Mode::Armed;
         }
@@ -349,6 +432,7 @@ impl<T: Real> Drive<T> {
     /// Disables the amplifiers now (the safe command); always accepted.
     pub fn disarm(&mut self, ctrl: &mut Controller<T>) {
         ctrl.set_armed(false);
+        self.pending = None;
         self.mode = Mode::Disarmed;
     }
 
@@ -744,6 +828,10 @@ impl<T: Real> Drive<T> {
     ///   range checks;
     /// - an amplifier fault: the line is released;
     /// - an overrun or a watchdog reset: the loops run again (the caller is one of them);
+    /// - a motion fault (following error, runaway, frozen encoder, overspeed, soft limit):
+    ///   `y` passes the range checks; whatever caused it is for the operator to find, and the
+    ///   checks judge the next move afresh;
+    /// - a motor overload: the motor has cooled below the derating threshold;
     /// - a clock failure, a disabled brown-out reset, an invalid configuration or a singular
     ///   inertia matrix: never from the link (a power cycle or a new build fixes those).
     pub fn clear(
@@ -760,6 +848,16 @@ impl<T: Real> Drive<T> {
             }
             Fault::Amplifier => !amplifier_fault && measured.is_some(),
             Fault::Overrun | Fault::Watchdog => measured.is_some(),
+            Fault::FollowingError
+            | Fault::Runaway
+            | Fault::FrozenEncoder
+            | Fault::Overspeed
+            | Fault::SoftLimit => measured.is_some(),
+            Fault::Overload => {
+                let h = self.monitor.heat;
+                let cool = self.motion.thermal.derate;
+                measured.is_some() && h.x <= cool && h.y <= cool
+            }
             Fault::Clock | Fault::BrownOutDisabled | Fault::InvalidConfig | Fault::Singular => {
                 false
             }

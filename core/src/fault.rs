@@ -33,9 +33,33 @@ pub enum Fault {
     /// The brown-out reset is off in the option bytes: a sagging supply could run the chip
     /// outside its specification with the amplifiers on.
     BrownOutDisabled,
+    /// A joint is farther from its reference than the following-error limit (`crate::motion`).
+    FollowingError,
+    /// A joint runs away: fast, off its reference and moving against its torque (a reversed or
+    /// slipped encoder).
+    Runaway,
+    /// An encoder's reading stood still under a torque that moves the joint (a pulled cable, or
+    /// a joint stalled hard).
+    FrozenEncoder,
+    /// The observer's joint speed exceeds the overspeed limit.
+    Overspeed,
+    /// A joint came within its stopping distance of the end of its range.
+    SoftLimit,
+    /// A motor's I²t thermal state reached its limit.
+    Overload,
 }
 
 impl Fault {
+    /// The stop category (IEC 60204-1) the drive applies: 0, the safe state at once; 1, a
+    /// controlled stop, then the safe state (`crate::motion`). Only a fault whose sensors can
+    /// still be trusted to brake with is stopped in category 1.
+    pub fn stop_category(self) -> u8 {
+        match self {
+            Self::SoftLimit | Self::Overload => 1,
+            _ => 0,
+        }
+    }
+
     /// A short, stable name for logs and telemetry.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -50,6 +74,12 @@ impl Fault {
             Self::Singular => "inertia matrix not positive definite",
             Self::Clock => "clock failure (crystal or PLL)",
             Self::BrownOutDisabled => "brown-out reset disabled in the option bytes",
+            Self::FollowingError => "following error",
+            Self::Runaway => "joint runaway (reversed or slipped encoder)",
+            Self::FrozenEncoder => "frozen encoder or stalled joint",
+            Self::Overspeed => "overspeed",
+            Self::SoftLimit => "joint at the end of its range",
+            Self::Overload => "motor overload (I2t)",
         }
     }
 }

@@ -32,6 +32,7 @@ pub mod kinematics;
 pub mod limits;
 pub mod model;
 pub mod modes;
+pub mod motion;
 pub mod observer;
 pub mod observer_gains;
 pub mod params;

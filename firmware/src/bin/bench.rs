@@ -28,6 +28,7 @@ use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::control::tracking::eq7_torques;
 use flexarm_core::controller::Controller;
 use flexarm_core::model::Model;
+use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::params::{ArmParams, Gains, Limits};
@@ -261,6 +262,21 @@ fn call_motor_step(c: &mut Controller<f32>, t: &f32, y: &Measurement<f32>) -> (V
 #[inline(never)]
 fn call_piezo_step(c: &mut Controller<f32>, v_f: &f32) -> (f32, u32) {
     timed((c, v_f), |(c, v_f)| c.piezo_step(*v_f))
+}
+
+/// The motion checks of one motor period (`flexarm_core::motion`, run by the drive after the
+/// motor step): every check and the I²t update, on the state's angles, reference and speeds.
+#[inline(never)]
+fn call_motion(
+    m: &mut MotionMonitor<f32>,
+    l: &MotionLimits<f32>,
+    s: &MotionSample<f32>,
+) -> (f32, u32) {
+    timed((m, l, s), |(m, l, s)| {
+        let v = m.check(l, s);
+        m.heat(l, s.tau, 1e-3);
+        if v == Verdict::Clear { m.heat.x } else { -1.0 }
+    })
 }
 
 /// The command link's receive path as the firmware runs it: the receive interrupt's queue (512
@@ -523,6 +539,19 @@ fn main() -> ! {
             call_piezo_step(black_box(&mut c), &s.y.v_f)
         });
         ok &= report(set, "piezo_step", &piezo, gated(BUDGET_PIEZO_STEP_MEAN));
+        // The motion checks, in steady state (a previous sample, counters running).
+        let limits = MotionLimits::default_for(1000);
+        let mut monitor = MotionMonitor::new();
+        let motion = measure(states, overhead, |s| {
+            let sample = MotionSample {
+                theta: Vector2::new(s.q.x, s.q.y),
+                theta_d: s.target.q,
+                speed: Vector2::new(s.qd.x, s.qd.y),
+                tau: Vector2::new(s.qd.x, -s.qd.y),
+            };
+            call_motion(black_box(&mut monitor), black_box(&limits), &sample)
+        });
+        ok &= report(set, "motion_check", &motion, gated(BUDGET_MOTION_CHECK_MEAN));
         // The link's receive path, a whole request frame; its cost per byte is the figure.
         let mut rx = Rx {
             queue: heapless::spsc::Queue::new(),
