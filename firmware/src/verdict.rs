@@ -19,6 +19,10 @@ const EXPECTED_FAULT: Option<Fault> = if cfg!(feature = "inject-nan") {
     Some(Fault::Overrun)
 } else if cfg!(feature = "inject-no-crystal") {
     Some(Fault::Clock)
+} else if cfg!(feature = "inject-reversed-encoder") {
+    Some(Fault::Runaway)
+} else if cfg!(feature = "inject-frozen-encoder") {
+    Some(Fault::FrozenEncoder)
 } else {
     None
 };

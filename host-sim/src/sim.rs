@@ -14,6 +14,7 @@ use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
 use flexarm_core::controller::Controller;
 use flexarm_core::indices::{L2Norm, TailMean};
 use flexarm_core::model::Model;
+use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use flexarm_core::observer::{Measurement, NoiseModel, Observer, design, film_map};
 use flexarm_core::params::{ArmParams, Gains, Limits, ParamError};
 use flexarm_core::supervisor::SensorLimits;
@@ -359,6 +360,13 @@ pub struct Summary {
     pub max_v_a: f64,
     /// Largest |tip deflection| [m].
     pub max_tip: f64,
+    /// The first motion check (`flexarm_core::motion`, its defaults at the run's motor rate) that
+    /// would have tripped, and when [s]: a false trip on a healthy run. The run goes on (the
+    /// study's figures are the laws', not the checks').
+    pub motion_trip: Option<(Fault, f64)>,
+    /// The largest tracking error the motion checks saw, `|θ_measured − θ_d|` [rad], and the
+    /// largest estimated joint speed [rad/s]: the evidence for their thresholds.
+    pub motion_peaks: (f64, f64),
 }
 
 /// The motor-side controller of a run (one per run: its size does not matter).
@@ -603,6 +611,25 @@ impl SimConfig {
     }
 }
 
+/// One motor period of the motion checks: the first verdict that is not clear, and the peaks.
+fn watch(
+    sum: &mut Summary,
+    monitor: &mut MotionMonitor<f32>,
+    limits: &MotionLimits<f32>,
+    s: &MotionSample<f32>,
+    t: f64,
+    dt: f64,
+) {
+    let verdict = monitor.check(limits, s);
+    monitor.heat(limits, s.tau, dt as f32);
+    if let (Verdict::Trip(f) | Verdict::Stop(f), None) = (verdict, sum.motion_trip) {
+        sum.motion_trip = Some((f, t));
+    }
+    let e = f64::from((s.theta - s.theta_d).abs().max());
+    let v = f64::from(s.speed.abs().max());
+    sum.motion_peaks = (sum.motion_peaks.0.max(e), sum.motion_peaks.1.max(v));
+}
+
 /// Runs the closed loop from rest at `θ_d(0)`; `record` keeps one [`Sample`] per motor period.
 pub fn simulate(
     cfg: &SimConfig,
@@ -629,6 +656,8 @@ pub fn simulate(
     let (mut tau, mut v_a, mut v_f) = (Vector2::<f64>::zeros(), 0.0_f64, 0.0_f64);
     // Measurements held back one period when `sensors.delay`.
     let mut held: Option<(State<f64>, f64)> = None;
+    let motion = MotionLimits::<f32>::default_for(cfg.rates.motor_hz.round() as u32);
+    let mut monitor = MotionMonitor::<f32>::new();
 
     for k in 0..steps {
         let t = k as f64 * dt;
@@ -666,6 +695,13 @@ pub fn simulate(
                             &target,
                         )
                         .map_err(|fault| SimError::Fault { fault, t })?;
+                    let sample = MotionSample {
+                        theta: Vector2::new(seen.q.x, seen.q.y).cast::<f32>(),
+                        theta_d: target.q,
+                        speed: Vector2::new(seen.qd.x, seen.qd.y).cast::<f32>(),
+                        tau: out.tau,
+                    };
+                    watch(&mut sum, &mut monitor, &motion, &sample, t, motor_dt);
                     (out.tau.cast::<f64>(), Vector2::new(seen.q.z, seen.q.w))
                 }
                 Loop::Observer(c) => {
@@ -678,7 +714,14 @@ pub fn simulate(
                     if let Some(fault) = c.fault() {
                         return Err(SimError::Fault { fault, t });
                     }
-                    let (q_hat, _) = c.estimate();
+                    let (q_hat, qd_hat) = c.estimate();
+                    let sample = MotionSample {
+                        theta: y.theta,
+                        theta_d: target.q,
+                        speed: Vector2::new(qd_hat.x, qd_hat.y),
+                        tau: rep.command.tau,
+                    };
+                    watch(&mut sum, &mut monitor, &motion, &sample, t, motor_dt);
                     (
                         rep.command.tau.cast::<f64>(),
                         Vector2::new(f64::from(q_hat.z), f64::from(q_hat.w)),

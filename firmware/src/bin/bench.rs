@@ -551,7 +551,12 @@ fn main() -> ! {
             };
             call_motion(black_box(&mut monitor), black_box(&limits), &sample)
         });
-        ok &= report(set, "motion_check", &motion, gated(BUDGET_MOTION_CHECK_MEAN));
+        ok &= report(
+            set,
+            "motion_check",
+            &motion,
+            gated(BUDGET_MOTION_CHECK_MEAN),
+        );
         // The link's receive path, a whole request frame; its cost per byte is the figure.
         let mut rx = Rx {
             queue: heapless::spsc::Queue::new(),

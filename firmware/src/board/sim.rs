@@ -130,6 +130,10 @@ pub struct SimBoard {
     pub diverged: bool,
     /// The verdict run's measurements.
     pub run: crate::verdict::RunCheck,
+    /// Plant steps since boot (the injection builds' clock).
+    steps: u32,
+    /// Joint 2's reading once frozen (`inject-frozen-encoder`).
+    frozen: Option<f32>,
 }
 
 impl SimBoard {
@@ -142,6 +146,8 @@ impl SimBoard {
             fault_n: SimPin(true),
             diverged: false,
             run: crate::verdict::RunCheck::default(),
+            steps: 0,
+            frozen: None,
         }
     }
 }
@@ -156,7 +162,17 @@ impl SimBoard {
 
 impl Board for SimBoard {
     fn encoders(&mut self) -> Vector2<f32> {
-        self.arm.encoders()
+        #[allow(unused_mut)]
+        let mut theta = self.arm.encoders();
+        #[cfg(feature = "inject-reversed-encoder")]
+        {
+            theta.x = -theta.x;
+        }
+        #[cfg(feature = "inject-frozen-encoder")]
+        if self.steps as f32 * self.dt >= 1.0 {
+            theta.y = *self.frozen.get_or_insert(theta.y);
+        }
+        theta
     }
     fn film_voltage(&mut self) -> f32 {
         self.arm.film_voltage()
@@ -187,6 +203,7 @@ impl Board for SimBoard {
         self.run.observe(&self.arm, self.diverged, t);
     }
     fn tick(&mut self) {
+        self.steps = self.steps.saturating_add(1);
         if !self.arm.step(self.dt) {
             self.diverged = true;
         }
