@@ -133,6 +133,7 @@ pub struct SimBoard {
     /// Plant steps since boot (the injection builds' clock).
     steps: u32,
     /// Joint 2's reading once frozen (`inject-frozen-encoder`).
+    #[cfg_attr(not(feature = "inject-frozen-encoder"), allow(dead_code))]
     frozen: Option<f32>,
 }
 
