@@ -127,7 +127,7 @@ fn amplifier_note(model: &DesignModel, best: &Optimum, k_max: f64) -> String {
         .map(|r| format!("{r}"))
         .collect();
     let v = best.k_c * model.volts_per_gain(pm);
-    let limit = model.amplifier.v_max / model.volts_per_gain(pm);
+    let limit = model.amplifier.headroom() / model.volts_per_gain(pm);
     let active = if a.enforce && best.k_c >= limit * (1.0 - 1e-6) {
         format!("the amplifier (k_c ≤ {limit:.1} s at this patch)")
     } else if best.k_c >= k_max * (1.0 - 1e-6) {
@@ -136,9 +136,10 @@ fn amplifier_note(model: &DesignModel, best: &Optimum, k_max: f64) -> String {
         "none: the optimum is interior in k_c".into()
     };
     format!(
-        "\nAmplifier: ±{} V{}. The reference vibration ({} m/s of tip speed per mode, worst phase) asks \
+        "\nAmplifier: {} V … +{} V{}. The reference vibration ({} m/s of tip speed per mode, worst phase) asks \
          for {v:.0} V at the optimum ({} V per mode); the amplifier allows k_c ≤ {limit:.1} s at this \
          patch. Active bound on k_c: {active}. (k_a = {:.4e} N·m/V, k_s = {:.4e} V/rad, Δφ' = {:?}.)\n",
+        a.v_min,
         a.v_max,
         if a.enforce { "" } else { " (not enforced)" },
         tips.join(", "),

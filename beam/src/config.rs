@@ -262,8 +262,10 @@ impl Default for OptimizeConfig {
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct AmplifierConfig {
-    /// Largest output voltage magnitude `V_max` [V].
+    /// Top of the output window `V_max` [V].
     pub v_max: f64,
+    /// Bottom of the window `V_min` [V] (negative; default `−v_max`).
+    pub v_min: Option<f64>,
     /// Tip speed of each mode in the reference vibration [m/s], one per mode kept.
     pub reference_tip_speed: Vec<f64>,
     /// Keep `k_c` within what the amplifier can serve (`false`: the paper's problem).
@@ -275,6 +277,7 @@ impl Default for AmplifierConfig {
         let a = Amplifier::default();
         Self {
             v_max: a.v_max,
+            v_min: None,
             reference_tip_speed: a.reference_tip_speed,
             enforce: a.enforce,
         }
@@ -507,6 +510,9 @@ impl Config {
         }
         let a = &self.amplifier;
         within("amplifier.v_max", a.v_max, 1e-3, 1e5, "V")?;
+        if let Some(v) = a.v_min {
+            within("amplifier.v_min", -v, 1e-3, 1e5, "V (negated)")?;
+        }
         check(a.reference_tip_speed.len() == b.zeta.len(), || {
             format!(
                 "`amplifier.reference_tip_speed` has {} speeds but `beam.zeta` keeps {} modes",
@@ -586,6 +592,7 @@ impl Config {
             lambda: self.optimize.lambda.clone(),
             amplifier: Amplifier {
                 v_max: self.amplifier.v_max,
+                v_min: self.amplifier.v_min.unwrap_or(-self.amplifier.v_max),
                 reference_tip_speed: self.amplifier.reference_tip_speed.clone(),
                 enforce: self.amplifier.enforce,
             },
@@ -649,6 +656,8 @@ mod tests {
             ("[beam]\nzeta = [0.1, 1.5]", "beam.zeta"),
             ("[optimize]\nstep = 0.00001", "2000"),
             ("[amplifier]\nv_max = 0.0", "amplifier.v_max"),
+            ("[amplifier]\nv_min = 30.0", "amplifier.v_min"),
+            ("[amplifier]\nv_min = nan", "amplifier.v_min"),
             ("[amplifier]\nv_max = nan", "amplifier.v_max"),
             (
                 "[amplifier]\nreference_tip_speed = [0.2]",

@@ -64,14 +64,26 @@ pub enum Objective {
 /// The piezo amplifier as a constraint of the design (module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Amplifier {
-    /// Largest voltage magnitude the amplifier delivers `V_max` [V].
+    /// Top of the amplifier's window `V_max` [V].
     pub v_max: f64,
+    /// Bottom of the window `V_min` [V], negative: a piezoceramic is rated for less reverse
+    /// than forward voltage. The reference vibration swings both ways, so the constraint is
+    /// set by the smaller of `V_max` and `−V_min` ([`Amplifier::headroom`]).
     /// Tip speed `v_j` of each mode in the reference vibration [m/s]; a mode past the end of
     /// the list takes the last value.
     pub reference_tip_speed: Vec<f64>,
     /// Whether the optimizer keeps `k_c` within [`DesignModel::gain_limit`]. `false` is the
     /// paper's problem, bounded by `K_max` alone.
     pub enforce: bool,
+    /// See [`Self::v_max`].
+    pub v_min: f64,
+}
+
+impl Amplifier {
+    /// The largest voltage magnitude available in both directions, `min(V_max, −V_min)` [V].
+    pub fn headroom(&self) -> f64 {
+        self.v_max.min(-self.v_min)
+    }
 }
 
 impl Default for Amplifier {
@@ -83,6 +95,7 @@ impl Default for Amplifier {
             v_max: 200.0,
             reference_tip_speed: vec![0.2, 0.02],
             enforce: true,
+            v_min: -200.0,
         }
     }
 }
@@ -252,11 +265,11 @@ impl DesignModel {
         )
     }
 
-    /// The largest gain the amplifier allows at this patch, `V_max / volts_per_gain` [s];
-    /// infinite when the constraint is not enforced.
+    /// The largest gain the amplifier allows at this patch, `min(V_max, −V_min) /
+    /// volts_per_gain` [s]; infinite when the constraint is not enforced.
     pub fn gain_limit(&self, pm: &PatchModes) -> f64 {
         if self.amplifier.enforce {
-            self.amplifier.v_max / self.volts_per_gain(pm)
+            self.amplifier.headroom() / self.volts_per_gain(pm)
         } else {
             f64::INFINITY
         }
@@ -401,6 +414,26 @@ mod tests {
             t += dt;
         }
         y[n]
+    }
+
+    /// An asymmetric window constrains the gain by its smaller side: the reference vibration
+    /// swings both ways.
+    #[test]
+    fn the_gain_limit_takes_the_windows_smaller_side() {
+        let symmetric = DesignModel::default();
+        let mut asym = DesignModel::default();
+        asym.amplifier.v_max = 150.0;
+        asym.amplifier.v_min = -30.0;
+        let Ok(pm) = symmetric.patch_modes(0.05, 0.3) else {
+            unreachable!("a patch on the beam")
+        };
+        let (full, small) = (symmetric.gain_limit(&pm), asym.gain_limit(&pm));
+        assert!(
+            (small / full - 30.0 / 200.0).abs() < 1e-12,
+            "{small} {full}"
+        );
+        asym.amplifier.v_min = -300.0;
+        assert!((asym.gain_limit(&pm) / full - 150.0 / 200.0).abs() < 1e-12);
     }
 
     #[test]

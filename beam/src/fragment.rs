@@ -106,7 +106,7 @@ pub fn paper_modes_gain_limit(
     )
     .iter()
     .sum();
-    a.v_max / per_gain
+    a.headroom() / per_gain
 }
 
 /// The `[piezo]` fragment for the design point `opt` on the arm `arm`.

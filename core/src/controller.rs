@@ -166,7 +166,7 @@ impl<T: Real> Controller<T> {
                 limits,
                 law,
             },
-            PiezoLaw::new(&piezo_gains, piezo_period, limits.v_a_max),
+            PiezoLaw::with_window(&piezo_gains, piezo_period, limits.v_a_min, limits.v_a_max),
             patch,
             Observer::new(observer_gain, film_map(&patch), motor_period, theta0),
             SensorLimits::default(),

@@ -276,26 +276,33 @@ impl<T: Real> Gains<T> {
 pub struct Limits<T> {
     /// Largest motor torque per joint [N·m].
     pub tau_max: Vector2<T>,
-    /// Largest piezo amplifier output [V] (symmetric).
+    /// Largest piezo amplifier output [V]: the top of the window.
     pub v_a_max: T,
+    /// Smallest (most negative) piezo amplifier output [V]: the bottom of the window. A
+    /// piezoceramic is rated for less reverse than forward voltage (it depolarizes), so the
+    /// window may be asymmetric; `−v_a_max` is the symmetric one.
+    pub v_a_min: T,
 }
 
 impl<T: Real> Default for Limits<T> {
     /// ±10 N·m per joint (several times the peak of the paper's moves, `docs/model.md`),
-    /// ±200 V on the piezo amplifier.
+    /// ±200 V on the piezo amplifier (the symmetric window; a patch's datasheet gives its own).
     fn default() -> Self {
         Self {
             tau_max: Vector2::new(T::c(10.0), T::c(10.0)),
             v_a_max: T::c(200.0),
+            v_a_min: T::c(-200.0),
         }
     }
 }
 
 impl<T: Real> Limits<T> {
-    /// All limits strictly positive.
+    /// The torque limits strictly positive; the piezo window around 0 V
+    /// (`v_a_min < 0 < v_a_max`, both finite).
     pub fn validate(&self) -> Result<(), ParamError> {
         positive("tau_max[0]", self.tau_max.x)?;
         positive("tau_max[1]", self.tau_max.y)?;
-        positive("v_a_max", self.v_a_max)
+        positive("v_a_max", self.v_a_max)?;
+        positive("v_a_min (negated)", -self.v_a_min)
     }
 }

@@ -27,8 +27,10 @@ pub enum Tunable {
     CutoffHz,
     /// Torque limit of a joint (0–1) [N·m].
     TauMax(usize),
-    /// Piezo amplifier limit [V].
+    /// Top of the piezo amplifier's window [V].
     VaMax,
+    /// Bottom of the piezo amplifier's window [V] (negative).
+    VaMin,
 }
 
 /// Why a parameter cannot be read or written.
@@ -58,7 +60,7 @@ pub struct Tuning<T> {
     pub piezo_period: T,
     /// Largest torque limit the drives allow [N·m].
     pub tau_ceiling: Vector2<T>,
-    /// Largest voltage the board's piezo output stage delivers [V].
+    /// Largest voltage magnitude the board's piezo output stage delivers, either sign [V].
     pub v_a_ceiling: T,
 }
 
@@ -77,6 +79,7 @@ impl<T: Real> Tuning<T> {
             Tunable::CutoffHz => Ok(self.piezo.cutoff_hz),
             Tunable::TauMax(i) => at2(&l.tau_max, i),
             Tunable::VaMax => Ok(l.v_a_max),
+            Tunable::VaMin => Ok(l.v_a_min),
         }
     }
 
@@ -103,19 +106,21 @@ impl<T: Real> Tuning<T> {
             Tunable::CutoffHz => piezo.cutoff_hz = value,
             Tunable::TauMax(i) => *slot(limits.tau_max.get_mut(i))? = value,
             Tunable::VaMax => limits.v_a_max = value,
+            Tunable::VaMin => limits.v_a_min = value,
         }
-        let law = PiezoLaw::new(&piezo, self.piezo_period, limits.v_a_max);
+        let law = PiezoLaw::with_window(&piezo, self.piezo_period, limits.v_a_min, limits.v_a_max);
         // The board's ceilings, and a filter corner below the piezo loop's Nyquist rate.
         let within = limits.tau_max.x <= self.tau_ceiling.x
             && limits.tau_max.y <= self.tau_ceiling.y
             && limits.v_a_max <= self.v_a_ceiling
+            && -limits.v_a_min <= self.v_a_ceiling
             && piezo.cutoff_hz * self.piezo_period < T::c(0.5);
         if gains.validate().is_err() || limits.validate().is_err() || !law.is_valid() || !within {
             return Err(TuneError::OutOfRange);
         }
         ctrl.motor.gains = gains;
         ctrl.motor.limits = limits;
-        if piezo != self.piezo || p == Tunable::VaMax {
+        if piezo != self.piezo || matches!(p, Tunable::VaMax | Tunable::VaMin) {
             ctrl.piezo = law;
             self.piezo = piezo;
         }

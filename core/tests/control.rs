@@ -297,3 +297,58 @@ fn transducer_lever_arms_come_from_the_composite_section() {
     let k_s = m.film_volts_per_slope(0.35);
     assert!((k_s - 0.216 * 2e9 * 28e-6 * m.film_lever_arm() / 0.35).abs() < 1e-12 * k_s);
 }
+
+proptest! {
+    /// The piezo law saturates at an asymmetric window: a patch rated −30 V … +150 V never sees
+    /// more, and inside the window the law is the symmetric one's.
+    #[test]
+    fn the_piezo_law_keeps_an_asymmetric_window(
+        samples in prop::collection::vec(-9.0f32..9.0, 1..200),
+    ) {
+        let g = PiezoGains::default();
+        let mut asym = PiezoLaw::with_window(&g, 1e-4, -30.0, 150.0);
+        let mut wide = PiezoLaw::new(&g, 1e-4, 1e6);
+        prop_assert!(asym.is_valid());
+        for v in samples {
+            let (a, w) = (asym.step_finite(v), wide.step_finite(v));
+            prop_assert!((-30.0..=150.0).contains(&a), "{a}");
+            prop_assert_eq!(a, w.clamp(-30.0, 150.0));
+        }
+    }
+}
+
+/// A window that does not hold 0 V (the safe state) is an invalid configuration.
+#[test]
+fn a_piezo_window_without_zero_is_refused() {
+    use flexarm_core::controller::Controller;
+    use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
+    use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
+    let g = PiezoGains::<f32>::default();
+    assert!(!PiezoLaw::with_window(&g, 1e-4, 10.0, 150.0).is_valid());
+    assert!(!PiezoLaw::with_window(&g, 1e-4, -30.0, -5.0).is_valid());
+    assert!(!PiezoLaw::with_window(&g, 1e-4, f32::NEG_INFINITY, 150.0).is_valid());
+    for v_a_min in [10.0f32, 0.0, f32::NAN] {
+        let limits = Limits {
+            v_a_min,
+            ..Limits::default()
+        };
+        assert!(limits.validate().is_err(), "{v_a_min}");
+        let c = Controller::with_patch(
+            MotorLaw::Tracking,
+            JointTrajectory::Trapezoid(Trapezoid::paper()),
+            1e-4,
+            1e-3,
+            gain(&GAIN_1KHZ),
+            PiezoPatch::paper(),
+            g,
+            limits,
+        );
+        assert_eq!(c.fault(), Some(Fault::InvalidConfig), "{v_a_min}");
+    }
+    let ok = Limits::<f32> {
+        v_a_max: 150.0,
+        v_a_min: -30.0,
+        ..Limits::default()
+    };
+    assert!(ok.validate().is_ok());
+}

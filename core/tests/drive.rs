@@ -375,6 +375,8 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
         (Tunable::CutoffHz, 1e9, TuneError::OutOfRange),
         (Tunable::TauMax(0), 12.0, TuneError::OutOfRange),
         (Tunable::VaMax, 250.0, TuneError::OutOfRange),
+        (Tunable::VaMin, 5.0, TuneError::OutOfRange),
+        (Tunable::VaMin, -250.0, TuneError::OutOfRange),
         (Tunable::Kp(4), 1.0, TuneError::Unknown),
         (Tunable::DDelta(2), 1.0, TuneError::Unknown),
     ] {
@@ -382,6 +384,10 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
     }
     assert_eq!((b.ctrl.motor, b.ctrl.piezo, t), before);
     assert_eq!(t.get(&b.ctrl, Tunable::TauMax(2)), Err(TuneError::Unknown));
+    // An asymmetric window for a patch rated −30 V … +200 V: the law saturates there.
+    b.tune(&mut t, Tunable::VaMin, -30.0).unwrap();
+    assert_eq!(t.get(&b.ctrl, Tunable::VaMin), Ok(-30.0));
+    assert_eq!(b.ctrl.piezo.window(), (-30.0, 200.0));
     // While a move runs: refused; after it: accepted.
     b.drive.arm(&mut b.ctrl, b.now).unwrap();
     b.drive

@@ -55,9 +55,11 @@ pub fn patch() -> PiezoPatch<f32> {
     }
 }
 
-/// The controller's limits: the core's torque limits, and the piezo voltage the board's
-/// output stage can deliver (±175 V on the hardware board, whose DAC buffer does not reach its
-/// rails; the QEMU board's ideal output keeps the core's ±200 V).
+/// The controller's limits: the core's torque limits, and the piezo window the board's output
+/// stage can deliver (±175 V on the hardware board, whose DAC buffer does not reach its rails;
+/// the QEMU board's ideal output keeps the core's ±200 V). A patch rated for less reverse
+/// voltage (a piezoceramic depolarizes) takes its own `v_a_min` here, or over the link
+/// (`Set(VaMin, v)`, within the stage's −175 V).
 pub fn limits() -> Limits<f32> {
     #[cfg(feature = "hw")]
     let v_a_max = crate::board::hw::PIEZO_V_MAX;
@@ -65,6 +67,7 @@ pub fn limits() -> Limits<f32> {
     let v_a_max = Limits::<f32>::default().v_a_max;
     Limits {
         v_a_max,
+        v_a_min: -v_a_max,
         ..Limits::default()
     }
 }

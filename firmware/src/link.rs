@@ -468,6 +468,7 @@ fn tunable(p: Param) -> Result<Tunable, TuneError> {
         Param::CutoffHz => Tunable::CutoffHz,
         Param::TauMax(i) => Tunable::TauMax(usize::from(i)),
         Param::VaMax => Tunable::VaMax,
+        Param::VaMin => Tunable::VaMin,
         Param::LinkTimeout => return Err(TuneError::Unknown),
     })
 }
@@ -512,7 +513,14 @@ pub fn params_hash() -> u32 {
     for x in [p.x_a, p.l_a, p.slope_diff.x, p.slope_diff.y, p.k_a, p.k_s] {
         add(x);
     }
-    for x in [g.k_c, g.cutoff_hz, l.tau_max.x, l.tau_max.y, l.v_a_max] {
+    for x in [
+        g.k_c,
+        g.cutoff_hz,
+        l.tau_max.x,
+        l.tau_max.y,
+        l.v_a_max,
+        l.v_a_min,
+    ] {
         add(x);
     }
     for row in crate::config::OBSERVER_GAIN {

@@ -322,6 +322,7 @@ struct RatesSpec {
 struct LimitsSpec {
     tau_max: Option<[f64; 2]>,
     v_a_max: Option<f64>,
+    v_a_min: Option<f64>,
 }
 
 #[derive(Deserialize, Default)]
@@ -453,6 +454,7 @@ fn ranges(f: &File) -> Result<(), ScenarioError> {
         within("limits.tau_max", Some(*v), 0.0, 1e4, "N m")?;
     }
     within("limits.v_a_max", f.limits.v_a_max, 0.0, 1e5, "V")?;
+    within("limits.v_a_min", f.limits.v_a_min, -1e5, 0.0, "V")?;
     let s = &f.sensors;
     within(
         "sensors.encoder_counts",
@@ -601,8 +603,13 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
     if let Some(t) = f.limits.tau_max {
         cfg.limits.tau_max = Vector2::new(t[0] as f32, t[1] as f32);
     }
+    // The window: `v_a_max` alone keeps it symmetric; `v_a_min` sets its bottom.
     if let Some(v) = f.limits.v_a_max {
         cfg.limits.v_a_max = v as f32;
+        cfg.limits.v_a_min = -(v as f32);
+    }
+    if let Some(v) = f.limits.v_a_min {
+        cfg.limits.v_a_min = v as f32;
     }
     cfg.limits.validate().map_err(|e| param("limits", e))?;
     cfg.duration = positive("duration", f.duration.unwrap_or(cfg.duration))?;

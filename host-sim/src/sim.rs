@@ -391,7 +391,14 @@ fn build(
         limits: cfg.limits,
         law: cfg.law,
     };
-    let piezo_law = |g: PiezoGains<f32>| PiezoLaw::new(&g, piezo_period as f32, cfg.limits.v_a_max);
+    let piezo_law = |g: PiezoGains<f32>| {
+        PiezoLaw::with_window(
+            &g,
+            piezo_period as f32,
+            cfg.limits.v_a_min,
+            cfg.limits.v_a_max,
+        )
+    };
     Ok(match cfg.state {
         StateSource::Full => Loop::Full {
             motor,
@@ -580,7 +587,12 @@ impl SimConfig {
             );
         }
         if let Some(g) = self.piezo {
-            let law = PiezoLaw::new(&g, piezo_dt as f32, self.limits.v_a_max);
+            let law = PiezoLaw::with_window(
+                &g,
+                piezo_dt as f32,
+                self.limits.v_a_min,
+                self.limits.v_a_max,
+            );
             if !(g.k_c.is_finite() && g.k_c > 0.0) {
                 return input(
                     "controller.k_c",

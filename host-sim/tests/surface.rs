@@ -27,6 +27,7 @@ const KEYS: &[(&str, &str, &str)] = &[
     ("rates", "piezo_hz", "s"),
     ("limits", "tau_max", "v2"),
     ("limits", "v_a_max", "s"),
+    ("limits", "v_a_min", "s"),
     ("arm", "a1", "s"),
     ("arm", "a2", "s"),
     ("arm", "m1", "s"),

@@ -135,8 +135,11 @@ pub enum Param {
     CutoffHz,
     /// Torque limit of joint `i` (0–1) [N·m].
     TauMax(u8),
-    /// Piezo amplifier limit [V].
+    /// Top of the piezo amplifier's window [V].
     VaMax,
+    /// Bottom of the piezo amplifier's window [V] (negative: a patch takes less reverse than
+    /// forward voltage).
+    VaMin,
     /// Link watchdog timeout [s]; 0 disables it.
     LinkTimeout,
 }

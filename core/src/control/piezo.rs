@@ -318,20 +318,35 @@ impl<T: Real> Default for PiezoGains<T> {
 }
 
 /// The piezo loop: `V_a = sat(−k_c V̇_f)` (Eq. 17); the gain `−k_c` is folded into the
-/// derivative filter.
+/// derivative filter. The saturation is the amplifier's window `[v_min, v_max]`: a piezoceramic
+/// depolarizes under a reverse field, so a patch is rated for less negative than positive
+/// voltage (for example −30 V … +150 V).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PiezoLaw<T> {
     filter: RateFilter<T>,
+    v_min: T,
     v_max: T,
 }
 
 impl<T: Real> PiezoLaw<T> {
     /// A law sampled every `period` [s], saturating at `±v_max` [V].
     pub fn new(gains: &PiezoGains<T>, period: T, v_max: T) -> Self {
+        Self::with_window(gains, period, -v_max, v_max)
+    }
+
+    /// A law sampled every `period` [s], saturating at the window `[v_min, v_max]` [V]
+    /// (`v_min < 0 < v_max`, [`Self::is_valid`]).
+    pub fn with_window(gains: &PiezoGains<T>, period: T, v_min: T, v_max: T) -> Self {
         Self {
             filter: RateFilter::with_gain(gains.cutoff_hz, period, -gains.k_c),
+            v_min,
             v_max,
         }
+    }
+
+    /// The saturation window `(v_min, v_max)` [V].
+    pub fn window(&self) -> (T, T) {
+        (self.v_min, self.v_max)
     }
 
     /// One step: the film voltage `v_f` [V] in, the actuator command [V] out.
@@ -349,18 +364,18 @@ impl<T: Real> PiezoLaw<T> {
     #[inline(always)]
     pub fn step_finite(&mut self, v_f: T) -> T {
         let v = self.filter.advance(v_f);
-        // One comparison on the common path, as in `saturate`.
-        if v.abs() <= self.v_max {
-            v
-        } else if v > T::zero() {
-            self.v_max
-        } else if v < T::zero() {
-            -self.v_max
-        } else {
+        // Two comparisons on every path but NaN's, as many as the symmetric law's `|v| ≤ v_max`
+        // took with its `abs`.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
+        if !(v <= self.v_max) {
+            if v > self.v_max {
+                return self.v_max;
+            }
             // NaN: the first sample after a reset. The filter restarts from it with output 0.
             self.filter.y = T::zero();
-            T::zero()
+            return T::zero();
         }
+        if v < self.v_min { self.v_min } else { v }
     }
 
     /// Forgets the filter's history.
@@ -369,8 +384,9 @@ impl<T: Real> PiezoLaw<T> {
     }
 
     /// `true` if the law damps: a stable derivative filter (`|a| < 1`), a negative folded gain
-    /// (`b < 0`, i.e. `k_c > 0`) and a positive finite limit. With a positive period this holds
-    /// exactly when `k_c` and the corner are finite and positive.
+    /// (`b < 0`, i.e. `k_c > 0`) and a finite window around 0 V (`v_min < 0 < v_max`: 0 V is
+    /// the safe state). With a positive period this holds exactly when `k_c` and the corner are
+    /// finite and positive.
     pub fn is_valid(&self) -> bool {
         let f = &self.filter;
         f.a.abs() < T::one()
@@ -378,5 +394,7 @@ impl<T: Real> PiezoLaw<T> {
             && f.b.finite()
             && self.v_max > T::zero()
             && self.v_max.finite()
+            && self.v_min < T::zero()
+            && self.v_min.finite()
     }
 }
