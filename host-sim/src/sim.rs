@@ -440,6 +440,24 @@ fn build(
     })
 }
 
+impl SimConfig {
+    /// The controller a board would run for this configuration and trajectory: the
+    /// observer-based [`Controller`] at the configuration's rates, whatever `state` says (the
+    /// drive's tests build a [`flexarm_core::drive::Drive`] around it).
+    pub fn controller(&self, traj: &JointTrajectory<f32>) -> Result<Controller<f32>, SimError> {
+        let cfg = SimConfig {
+            state: StateSource::Observer,
+            ..*self
+        };
+        let (motor_div, piezo_div) = cfg.rates.divisors()?;
+        let dt = cfg.rates.plant_dt;
+        match build(&cfg, traj, dt * motor_div as f64, dt * piezo_div as f64)? {
+            Loop::Observer(c) => Ok(*c),
+            Loop::Full { .. } => Err(SimError::ObserverDesign),
+        }
+    }
+}
+
 /// The plant step's range [s]: 0.1 µs (a thousandth of the 10 kHz piezo period) to 10 ms.
 pub const PLANT_DT_RANGE: (f64, f64) = (1e-7, 1e-2);
 /// Most plant steps in one loop period.
