@@ -7,7 +7,7 @@
 //! |---|---|---|---|
 //! | following error | `\|θ_i − θ_d,i\| > following_i` | [`Fault::FollowingError`] | category 0 |
 //! | runaway | for `runaway_periods` in a row: `\|θ̇̂_i\| ≥ runaway_speed` and not falling while `τ_i θ̇̂_i < 0` with `\|τ_i\| ≥ runaway_torque_i` (the joint speeds up against its torque), and `\|θ_i − θ_d,i\| ≥ runaway_error` | [`Fault::Runaway`] | category 0 |
-//! | frozen encoder | for `frozen_periods` in a row: `\|τ_i\| ≥ frozen_torque_i` and the encoder's reading unchanged | [`Fault::FrozenEncoder`] | category 0 |
+//! | frozen encoder | for `frozen_periods` in a row: `\|τ_i\| ≥ frozen_torque_i` of one sign and the encoder's reading unchanged | [`Fault::FrozenEncoder`] | category 0 |
 //! | overspeed | `\|θ̇̂_i\| > speed_i` | [`Fault::Overspeed`] | category 0 |
 //! | soft limit | a joint closer to the end of its range (`range_min`, `range_max`) than its stopping distance at `stop_accel` plus `range_margin`, moving towards it | [`Fault::SoftLimit`] | category 1 |
 //! | motor overload | the I²t state of a motor reaches `thermal.trip` | [`Fault::Overload`] | category 1 |
@@ -84,7 +84,7 @@ impl<T: Real> MotionLimits<T> {
     /// evidence): following error 0.05 rad (the truth plant's worst closed-loop error over the
     /// paper's moves and their Monte Carlo, times a margin); overspeed 4 rad/s (the moves are
     /// limited to 3); runaway at 0.2 rad/s against a torque of 1 N·m with an error of 0.01 rad,
-    /// for 10 ms; frozen encoder at half the torque limit for 20 ms; soft limits at the sensors'
+    /// for 10 ms; frozen encoder at 3 N·m of one sign for 20 ms; soft limits at the sensors'
     /// range (θ1 ±π, θ2 ±2.8 rad) with a 0.02 rad margin beyond the stopping distance at
     /// 10 rad/s²; motors rated 4 N·m continuous with a 20 s winding time constant, derating from
     /// 60 % of the rating's heat to the continuous torque at 90 %, faulting at 95 %.
@@ -144,8 +144,8 @@ pub struct MotionSample<T> {
 pub struct MotionMonitor<T> {
     runaway: [u32; 2],
     frozen: [u32; 2],
-    /// The previous period's measured angles and estimated speeds.
-    previous: Option<(Vector2<T>, Vector2<T>)>,
+    /// The previous period's measured angles, estimated speeds and torques.
+    previous: Option<(Vector2<T>, Vector2<T>, Vector2<T>)>,
     /// The motors' I²t states [units of the continuous rating].
     pub heat: Vector2<T>,
 }
@@ -204,7 +204,7 @@ impl<T: Real> MotionMonitor<T> {
     pub fn check(&mut self, limits: &MotionLimits<T>, s: &MotionSample<T>) -> Verdict {
         let l = limits;
         let e = s.theta - s.theta_d;
-        let previous = self.previous.replace((s.theta, s.speed));
+        let previous = self.previous.replace((s.theta, s.speed, s.tau));
         let mut verdict = Verdict::Clear;
         let heat = self.heat;
         let counters = self.runaway.iter_mut().zip(self.frozen.iter_mut());
@@ -219,7 +219,7 @@ impl<T: Real> MotionMonitor<T> {
             }
             // Runaway: speeding up against the torque, off the reference. (A joint braking, even
             // saturated and behind its reference, slows down.)
-            let growing = previous.is_some_and(|(_, pv)| vj.abs() >= pick(&pv).abs());
+            let growing = previous.is_some_and(|(_, pv, _)| vj.abs() >= pick(&pv).abs());
             let against = tj * vj < T::zero() && tj.abs() >= pick(&l.runaway_torque);
             let counts =
                 against && growing && vj.abs() >= l.runaway_speed && ej.abs() >= l.runaway_error;
@@ -227,8 +227,11 @@ impl<T: Real> MotionMonitor<T> {
             if *runaway >= l.runaway_periods {
                 return Verdict::Trip(Fault::Runaway);
             }
-            // Frozen encoder: a torque that should move the joint, a reading that does not.
-            let still = previous.is_some_and(|(pt, _)| pick(&pt) == thj);
+            // Frozen encoder: a torque of one sign that should move the joint, a reading that
+            // does not. (A hold that chatters, its torque flipping sign every period, moves
+            // the joint less than a count and is not a frozen encoder.)
+            let still =
+                previous.is_some_and(|(pt, _, pu)| pick(&pt) == thj && pick(&pu) * tj > T::zero());
             let counts = still && tj.abs() >= pick(&l.frozen_torque);
             *frozen = if counts { frozen.saturating_add(1) } else { 0 };
             if *frozen >= l.frozen_periods {
