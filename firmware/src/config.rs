@@ -72,6 +72,14 @@ pub fn limits() -> Limits<f32> {
     }
 }
 
+/// The motion checks' thresholds and the motors' I²t model (`docs/safety.md`): the core's
+/// defaults for the paper's arm at this board's motor rate. A real arm's motors take their
+/// datasheet's continuous torque and winding time constant here (`thermal`), and its joints'
+/// ranges (`range_min`, `range_max`).
+pub fn motion() -> flexarm_core::motion::MotionLimits<f32> {
+    flexarm_core::motion::MotionLimits::default_for(MOTOR_HZ)
+}
+
 /// The piezo loop's gains: `k_c` [s] from `firmware/piezo.toml`, the core's filter corner.
 pub fn piezo_gains() -> PiezoGains<f32> {
     PiezoGains {

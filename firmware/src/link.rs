@@ -22,10 +22,9 @@ use flexarm_core::controller::Controller;
 use flexarm_core::drive::{self, Drive, MoveRequest, Refused, Waypoint};
 use flexarm_core::observer::Measurement;
 use flexarm_core::tuning::{Tunable, TuneError, Tuning};
-use flexarm_link::msg::DeviceMsgRef;
 use flexarm_link::msg::{
-    Board, Channels, Command, FaultPage, Hello, Load, MAX_CHANNELS, Mode, Move, Param,
-    RecordedSample, Refusal, Reply, SAMPLES_PER_PAGE, Status, Telemetry,
+    Board, Channels, Command, DeviceMsgRef, FaultPage, Hello, Load, MAX_CHANNELS, Mode, Move,
+    Param, RecordedSample, Refusal, Reply, SAMPLES_PER_PAGE, Status, Telemetry,
 };
 use flexarm_link::{Request, VERSION};
 
@@ -127,7 +126,7 @@ pub struct Io {
     pub ticks: u64,
     /// Telemetry records the motor loop could not queue.
     pub dropped: u32,
-    /// Bytes received since boot, and lost to a full queue.
+    /// Bytes received since boot.
     pub rx_bytes: u32,
     /// Bytes lost because the receive queue was full.
     pub rx_lost: u32,

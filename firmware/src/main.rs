@@ -261,6 +261,7 @@ mod app {
             MoveLimits::default(),
         );
         drive.link_timeout = config::LINK_TIMEOUT_S * MOTOR_HZ;
+        drive.motion = config::motion();
         if config::BOOT_MOVE && ctrl.fault().is_none() {
             let half_pi = core::f32::consts::FRAC_PI_2;
             let boot = MoveRequest::Trapezoid {
@@ -591,9 +592,12 @@ mod app {
             }
             core::hint::black_box(deeper(0));
         }
+        // At rest after the move: during it, the stalled plant (the QEMU board steps its arm in
+        // the piezo loop) would freeze the encoders under the move's torque, and the drive's
+        // frozen-encoder check would latch before the supervisor's liveness check.
         #[cfg(feature = "inject-piezo-stall")]
-        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
-            defmt::warn!("injecting a stalled piezo loop (TIM2 masked) at t = 1 s");
+        if cx.local.move_clock.elapsed(tick) == 3 * MOTOR_HZ {
+            defmt::warn!("injecting a stalled piezo loop (TIM2 masked) at t = 3 s");
             cortex_m::peripheral::NVIC::mask(stm32f4::stm32f405::Interrupt::TIM2);
         }
         #[cfg(feature = "inject-overrun")]
