@@ -433,9 +433,12 @@ fn flood_block(k: u16) -> Result<Vec<u8>, String> {
 
 /// The flood session (`link-e2e PORT flood`): arm, start a 1 s move, and from a second thread
 /// write blocks of [`flood_block`] as fast as the firmware takes them (kept at most 64 blocks,
-/// 33 kB, ahead of its replies) until the move has ended in the telemetry. The move completes
-/// and is tracked as the same move without the flood, no loop misses a deadline, and the
-/// firmware answers throughout.
+/// 33 kB, ahead of its replies) until the move has ended in the telemetry. The move completes at
+/// its target without a motion fault (its error within the following-error limit), no loop
+/// misses a deadline, and the firmware answers throughout. (Its tracking error is not held to
+/// the host simulation's, as the full session's moves are: with `sleep=on` QEMU's timers follow
+/// the host's clock and the piezo timer, which steps the QEMU board's plant, slips against the
+/// motor timer by a varying amount, 2.5e-3 to 8e-3 rad of error from run to run.)
 ///
 /// The rate: QEMU's USART model takes one byte per turn of QEMU's main loop, about 40 kB per
 /// second of the host's time, and this session's QEMU (`-icount sleep=on`) keeps the idle
@@ -546,12 +549,6 @@ fn flood(link: &mut Link) -> Result<(), String> {
     let end = during
         .last()
         .map_or([9.0; 2], |f| [f.values[2], f.values[3]]);
-    let traj = JointTrajectory::Trapezoid(Trapezoid {
-        start: nalgebra::Vector2::zeros(),
-        amplitude: nalgebra::Vector2::new(target[0], target[1]),
-        profile: Profile::new(move_time, ramp).map_err(|e| e.to_string())?,
-    });
-    let bound = 3.0 * simulated_error(&traj, 30.0)? as f32;
     check(
         rate >= 30_000.0,
         "the flood kept the line full at QEMU's pace",
@@ -567,14 +564,14 @@ fn flood(link: &mut Link) -> Result<(), String> {
             && after.fault.is_none()
             && misses(&after) == misses(&before)
             && link.flood_replies > 0
-            && max_error <= bound
+            && max_error < 0.05
             && (end[0] - target[0]).abs() < 0.01
             && (end[1] - target[1]).abs() < 0.01,
         "the move under the flood",
         format!(
             "{} flood requests answered; ended {:?} at θ̂ = ({:.3}, {:.3}) rad, max |θ − θ_d| \
-             {max_error:.2e} rad (bound 3× host = {bound:.2e}); deadline misses {}; telemetry \
-             records dropped {}",
+             {max_error:.2e} rad (within the following-error limit, 0.05); deadline misses {}; \
+             telemetry records dropped {}",
             link.flood_replies,
             after.mode,
             end[0],
