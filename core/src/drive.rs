@@ -22,6 +22,13 @@
 //! revolution; a waypoint path segment by segment ([`Drive::load_waypoints`]: the peaks in
 //! closed form, the torque at 9 poses of each segment with the segment's peaks).
 //!
+//! Motion safety (`crate::motion`): every armed motor period, after the motor step, the drive
+//! runs the motion checks on the measured angles, the reference, the observer's speeds and the
+//! torques. A category-0 fault trips the latch in the same period (the period's command becomes
+//! the safe one); a category-1 fault starts a controlled stop ([`Drive::stop`]) and is latched
+//! when the stop ends ([`Drive::pending`] meanwhile). The motors' I²t state lowers the torque
+//! limit the controller saturates at while a motor is hot.
+//!
 //! Validation ([`Drive::plan`]) reads only copies (the drive, the motor law, the held pose), so
 //! a firmware runs it outside the control loops' critical sections and then starts the plan
 //! with [`Drive::begin`], which only checks that nothing moved in between. Times are move-local
