@@ -50,6 +50,35 @@ pub enum Fault {
 }
 
 impl Fault {
+    /// Every fault, in the order of their stable numbers (1, 2, …).
+    pub const ALL: [Fault; 17] = [
+        Self::NonFinite,
+        Self::OutOfRange,
+        Self::Stale,
+        Self::EncoderJump,
+        Self::Watchdog,
+        Self::Overrun,
+        Self::Amplifier,
+        Self::InvalidConfig,
+        Self::Singular,
+        Self::Clock,
+        Self::BrownOutDisabled,
+        Self::FollowingError,
+        Self::Runaway,
+        Self::FrozenEncoder,
+        Self::Overspeed,
+        Self::SoftLimit,
+        Self::Overload,
+    ];
+
+    /// The fault of stable number `code` (`fault as u8`, what the command link reports).
+    pub fn from_code(code: u8) -> Option<Self> {
+        usize::from(code)
+            .checked_sub(1)
+            .and_then(|i| Self::ALL.get(i))
+            .copied()
+    }
+
     /// The stop category (IEC 60204-1) the drive applies: 0, the safe state at once; 1, a
     /// controlled stop, then the safe state (`crate::motion`). Only a fault whose sensors can
     /// still be trusted to brake with is stopped in category 1.

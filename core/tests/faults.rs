@@ -443,3 +443,14 @@ fn every_fault_has_its_own_stable_name() {
         }
     }
 }
+
+/// Every fault's stable number round-trips, in order from 1.
+#[test]
+fn fault_codes_round_trip() {
+    for (i, f) in Fault::ALL.iter().enumerate() {
+        assert_eq!(*f as u8, i as u8 + 1, "{f:?}");
+        assert_eq!(Fault::from_code(*f as u8), Some(*f));
+    }
+    assert_eq!(Fault::from_code(0), None);
+    assert_eq!(Fault::from_code(Fault::ALL.len() as u8 + 1), None);
+}

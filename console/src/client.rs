@@ -1,0 +1,219 @@
+//! A session with the firmware: the handshake, then requests and their replies, with the
+//! telemetry that arrives meanwhile kept.
+
+use std::time::{Duration, Instant};
+
+use flexarm_link::msg::{Hello, Refusal, Telemetry};
+use flexarm_link::{Command, Decoder, DeviceMsg, MAX_FRAME, Reply, Request, VERSION};
+
+use crate::transport::Link;
+
+/// What went wrong, as one line.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ConsoleError {
+    /// The port or socket could not be opened, read or written.
+    Io(String),
+    /// Bytes came back, none of them a frame of our firmware.
+    NotOurFirmware {
+        /// Bytes received during the handshake.
+        bytes: usize,
+    },
+    /// Nothing came back.
+    Silent,
+    /// The firmware refused the handshake: another protocol version.
+    Version,
+    /// No reply to a request in time.
+    Timeout(String),
+    /// The firmware refused a request.
+    Refused {
+        /// What was asked.
+        what: String,
+        /// Why it was refused.
+        why: Refusal,
+    },
+    /// The firmware answered with something the request does not expect.
+    Unexpected(String),
+    /// A command line or file the tool cannot use.
+    Usage(String),
+}
+
+impl std::fmt::Display for ConsoleError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Io(e) => write!(f, "{e}"),
+            Self::NotOurFirmware { bytes } => write!(
+                f,
+                "{bytes} bytes came back but not one frame of the flexarm firmware: is this the right port and baud rate?"
+            ),
+            Self::Silent => write!(
+                f,
+                "no answer from the firmware within the handshake's time: is the board powered and booted, and the port the right one?"
+            ),
+            Self::Version => write!(
+                f,
+                "the firmware refused protocol version {VERSION}: it was built from another version of flexarm-link; flash the firmware of this checkout or use its console"
+            ),
+            Self::Timeout(what) => write!(f, "no reply to {what} in time"),
+            Self::Refused { what, why } => write!(f, "{what} refused: {}", refusal(*why)),
+            Self::Unexpected(what) => write!(f, "unexpected answer: {what}"),
+            Self::Usage(what) => write!(f, "{what}"),
+        }
+    }
+}
+
+impl std::error::Error for ConsoleError {}
+
+/// A refusal in words.
+pub fn refusal(r: Refusal) -> &'static str {
+    match r {
+        Refusal::Version => "another protocol version",
+        Refusal::Moving => "a move or a stop is running",
+        Refusal::Faulted => "a fault is latched (read `status`, fix the cause, then `clear`)",
+        Refusal::NotArmed => "the drive is disarmed (`arm` first)",
+        Refusal::CauseActive => "the fault's cause is still there (or no fault is latched)",
+        Refusal::OutOfRange => "a value is out of its range or not finite",
+        Refusal::Unreachable => "the move leaves the arm's reach or the joints' ranges",
+        Refusal::TooFast => "the move asks more speed, acceleration or torque than the limits",
+        Refusal::Waypoints => {
+            "the waypoint list has a gap, is too long, or is not the length named"
+        }
+        Refusal::UnknownParam => "no such parameter",
+        Refusal::NoRecord => "nothing recorded there",
+        Refusal::Unsupported => "this firmware does not implement it",
+    }
+}
+
+/// How long the handshake keeps asking.
+pub const HANDSHAKE: Duration = Duration::from_secs(3);
+/// How long a request waits for its reply.
+pub const REPLY: Duration = Duration::from_secs(2);
+
+/// A session with the firmware.
+pub struct Client {
+    link: Box<dyn Link>,
+    decoder: Decoder,
+    next_id: u16,
+    /// The firmware's handshake.
+    pub hello: Hello,
+    /// Telemetry frames received since the last [`Client::take_telemetry`].
+    telemetry: Vec<Telemetry>,
+}
+
+impl Client {
+    /// Opens a session on `link`: `Hello` every 100 ms until the firmware answers, for at most
+    /// `timeout` (bytes sent before a board has booted are lost; QEMU waits for the connection).
+    pub fn connect(mut link: Box<dyn Link>, timeout: Duration) -> Result<Self, ConsoleError> {
+        link.set_timeout(Duration::from_millis(100))?;
+        let mut decoder = Decoder::new();
+        let (mut id, mut received) = (0u16, 0usize);
+        let start = Instant::now();
+        while start.elapsed() < timeout {
+            id = id.wrapping_add(1);
+            send(
+                &mut *link,
+                &Request {
+                    id,
+                    command: Command::Hello { version: VERSION },
+                },
+            )?;
+            let sent = Instant::now();
+            while sent.elapsed() < Duration::from_millis(100) {
+                let mut byte = [0u8; 1];
+                match link.read(&mut byte) {
+                    Ok(0) => return Err(ConsoleError::Io("the firmware closed the line".into())),
+                    Ok(_) => received += 1,
+                    Err(e) if is_timeout(&e) => break,
+                    Err(e) => return Err(ConsoleError::Io(format!("receive: {e}"))),
+                }
+                match decoder.push::<DeviceMsg>(byte[0]) {
+                    Some(Ok(DeviceMsg::Reply {
+                        reply: Reply::Hello(hello),
+                        ..
+                    })) => {
+                        link.set_timeout(REPLY)?;
+                        return Ok(Self {
+                            link,
+                            decoder,
+                            next_id: id,
+                            hello,
+                            telemetry: Vec::new(),
+                        });
+                    }
+                    Some(Ok(DeviceMsg::Reply {
+                        reply: Reply::Refused(Refusal::Version),
+                        ..
+                    })) => return Err(ConsoleError::Version),
+                    _ => {}
+                }
+            }
+        }
+        Err(if received > 0 {
+            ConsoleError::NotOurFirmware { bytes: received }
+        } else {
+            ConsoleError::Silent
+        })
+    }
+
+    /// Sends `command` and returns its reply; telemetry arriving meanwhile is kept.
+    pub fn ask(&mut self, command: Command) -> Result<Reply, ConsoleError> {
+        let what = format!("{command:?}");
+        self.next_id = self.next_id.wrapping_add(1);
+        if self.next_id == 0 {
+            self.next_id = 1;
+        }
+        let id = self.next_id;
+        send(&mut *self.link, &Request { id, command })?;
+        let start = Instant::now();
+        loop {
+            if start.elapsed() > REPLY {
+                return Err(ConsoleError::Timeout(what));
+            }
+            let mut byte = [0u8; 1];
+            match self.link.read(&mut byte) {
+                Ok(0) => return Err(ConsoleError::Io("the firmware closed the line".into())),
+                Ok(_) => {}
+                Err(e) if is_timeout(&e) => return Err(ConsoleError::Timeout(what)),
+                Err(e) => return Err(ConsoleError::Io(format!("receive: {e}"))),
+            }
+            match self.decoder.push::<DeviceMsg>(byte[0]) {
+                Some(Ok(DeviceMsg::Reply { id: got, reply })) if got == id => return Ok(reply),
+                Some(Ok(DeviceMsg::Telemetry(t))) => self.telemetry.push(t),
+                // A late answer to a handshake repeat or to a request that timed out, or a frame
+                // damaged on the line: skipped.
+                _ => {}
+            }
+        }
+    }
+
+    /// [`Self::ask`], a refusal turned into an error naming `what` was asked.
+    pub fn request(&mut self, what: &str, command: Command) -> Result<Reply, ConsoleError> {
+        match self.ask(command)? {
+            Reply::Refused(why) => Err(ConsoleError::Refused {
+                what: what.into(),
+                why,
+            }),
+            r => Ok(r),
+        }
+    }
+
+    /// The telemetry received so far, handed over.
+    pub fn take_telemetry(&mut self) -> Vec<Telemetry> {
+        std::mem::take(&mut self.telemetry)
+    }
+}
+
+fn is_timeout(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+    )
+}
+
+fn send(link: &mut dyn Link, request: &Request) -> Result<(), ConsoleError> {
+    let mut buf = [0u8; MAX_FRAME];
+    let frame = flexarm_link::encode(request, &mut buf)
+        .map_err(|e| ConsoleError::Usage(format!("the request does not fit a frame: {e}")))?;
+    link.write_all(frame)
+        .and_then(|()| link.flush())
+        .map_err(|e| ConsoleError::Io(format!("send: {e}")))
+}

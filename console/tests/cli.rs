@@ -1,0 +1,241 @@
+//! The `flexarm` tool against stand-ins for the firmware on a local socket: a firmware that
+//! answers like ours, one of another protocol version, a peer that sends random bytes, a silent
+//! one; and a port that does not exist. Every failure is one line on stderr and exit status 1.
+
+use std::io::{Read, Write};
+use std::net::TcpListener;
+use std::process::{Command as Process, Output};
+use std::thread;
+
+use flexarm_link::msg::{Board, Hello, Load, Mode, Param, Refusal, Status};
+use flexarm_link::{Command, Decoder, DeviceMsg, MAX_FRAME, Reply, Request, VERSION, encode};
+
+/// A stand-in firmware on a fresh local port: answers each request with `answer`, until the
+/// client hangs up. Returns the port.
+fn firmware(answer: fn(&Command) -> Option<Reply>) -> u16 {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    thread::spawn(move || {
+        let Ok((mut s, _)) = listener.accept() else {
+            return;
+        };
+        let mut d = Decoder::new();
+        let mut byte = [0u8; 1];
+        while let Ok(1) = s.read(&mut byte) {
+            if let Some(Ok(Request { id, command })) = d.push::<Request>(byte[0])
+                && let Some(reply) = answer(&command)
+            {
+                let mut buf = [0u8; MAX_FRAME];
+                let f = encode(&DeviceMsg::Reply { id, reply }, &mut buf).unwrap();
+                if s.write_all(f).is_err() {
+                    return;
+                }
+            }
+        }
+    });
+    port
+}
+
+/// A peer that sends `bytes` after every byte it receives, or nothing.
+fn peer(bytes: &'static [u8]) -> u16 {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    thread::spawn(move || {
+        let Ok((mut s, _)) = listener.accept() else {
+            return;
+        };
+        let mut byte = [0u8; 64];
+        while let Ok(n) = s.read(&mut byte) {
+            if n == 0 || (!bytes.is_empty() && s.write_all(bytes).is_err()) {
+                return;
+            }
+        }
+    });
+    port
+}
+
+fn ours(c: &Command) -> Option<Reply> {
+    Some(match c {
+        Command::Hello { version } if *version == VERSION => Reply::Hello(Hello {
+            version: VERSION,
+            board: Board::Qemu,
+            build: heapless::String::try_from("stand-in").unwrap(),
+            params_hash: 0x1234_5678,
+            motor_hz: 100,
+            piezo_hz: 1000,
+        }),
+        Command::Hello { .. } => Reply::Refused(Refusal::Version),
+        Command::Status => Reply::Status(Status {
+            mode: Mode::Fault,
+            fault: Some(13),
+            ticks: 4200,
+            loads: [Load::default(); 2],
+            telemetry_dropped: 0,
+            link_stops: 0,
+            rx_bytes: 99,
+            rx_lost: 0,
+            stack_used: 1700,
+        }),
+        Command::Arm => Reply::Done,
+        Command::Get(_) => Reply::Value(30.0),
+        Command::Set(Param::Kc, v) if *v <= 0.0 => Reply::Refused(Refusal::OutOfRange),
+        Command::Set(..) => Reply::Done,
+        Command::Move(_) => Reply::Refused(Refusal::TooFast),
+        _ => Reply::Refused(Refusal::Unsupported),
+    })
+}
+
+fn flexarm(args: &[&str]) -> Output {
+    Process::new(env!("CARGO_BIN_EXE_flexarm"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn text(o: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// A failure: exit status 1, one line on stderr containing `needle`, nothing on stdout.
+fn fails_with(args: &[&str], needle: &str) {
+    let o = flexarm(args);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {out}{err}");
+    assert_eq!(err.lines().count(), 1, "{args:?}: one line: {err}");
+    assert!(
+        err.starts_with("flexarm: ") && err.contains(needle),
+        "{args:?}: {err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn status_names_the_fault_and_the_counters() {
+    let port = firmware(ours).to_string();
+    let o = flexarm(&["--tcp", &format!("127.0.0.1:{port}"), "status"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("stand-in on Qemu") && out.contains("12345678"),
+        "{out}"
+    );
+    assert!(out.contains("mode: FAULT"), "{out}");
+    assert!(out.contains("fault: 13 (joint runaway"), "{out}");
+    assert!(out.contains("stack 1700 bytes"), "{out}");
+}
+
+#[test]
+fn commands_answer_in_one_line_each() {
+    let at = |port: u16| format!("127.0.0.1:{port}");
+    let o = flexarm(&["--tcp", &at(firmware(ours)), "arm"]);
+    assert_eq!(text(&o).0, "arm: done\n");
+    let o = flexarm(&["--tcp", &at(firmware(ours)), "get", "kc"]);
+    assert_eq!(text(&o).0, "kc = 30 s\n");
+    let o = flexarm(&["--tcp", &at(firmware(ours)), "set", "va_min", "-30"]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let o = flexarm(&["get", "list"]);
+    assert!(text(&o).0.contains("va_min [V]"));
+}
+
+#[test]
+fn refusals_and_bad_input_are_one_line_and_exit_1() {
+    let at = |port: u16| format!("127.0.0.1:{port}");
+    fails_with(
+        &[
+            "--tcp",
+            &at(firmware(ours)),
+            "move",
+            "trapezoid",
+            "--to",
+            "3,0",
+            "--time",
+            "0.5",
+            "--ramp",
+            "0.1",
+        ],
+        "move trapezoid refused: the move asks more speed",
+    );
+    fails_with(
+        &["--tcp", &at(firmware(ours)), "set", "kc", "-1"],
+        "out of its range",
+    );
+    fails_with(
+        &["--tcp", &at(firmware(ours)), "get", "nope"],
+        "no parameter `nope`",
+    );
+    fails_with(&["status"], "--port PATH");
+    fails_with(
+        &[
+            "--tcp",
+            &at(firmware(ours)),
+            "move",
+            "trapezoid",
+            "--to",
+            "1",
+            "--time",
+            "2",
+            "--ramp",
+            "0.5",
+        ],
+        "--to takes two values",
+    );
+    fails_with(&["frobnicate"], "unrecognized subcommand");
+    fails_with(
+        &["--tcp", &at(firmware(ours)), "--wait", "nan", "status"],
+        "--wait",
+    );
+}
+
+#[test]
+fn a_firmware_of_another_protocol_version_is_named() {
+    fn other(c: &Command) -> Option<Reply> {
+        match c {
+            Command::Hello { .. } => Some(Reply::Refused(Refusal::Version)),
+            _ => None,
+        }
+    }
+    let port = firmware(other);
+    fails_with(
+        &["--tcp", &format!("127.0.0.1:{port}"), "status"],
+        &format!("refused protocol version {VERSION}"),
+    );
+}
+
+#[test]
+fn a_peer_that_is_not_our_firmware_is_named_not_hung_on() {
+    let port = peer(b"\x13\x37garbage\x00\xff\xfe\x00noise");
+    fails_with(
+        &[
+            "--tcp",
+            &format!("127.0.0.1:{port}"),
+            "--wait",
+            "1",
+            "status",
+        ],
+        "not one frame of the flexarm firmware",
+    );
+    let port = peer(b"");
+    fails_with(
+        &[
+            "--tcp",
+            &format!("127.0.0.1:{port}"),
+            "--wait",
+            "1",
+            "status",
+        ],
+        "no answer from the firmware",
+    );
+}
+
+#[test]
+fn a_port_that_does_not_exist_is_named() {
+    fails_with(
+        &["--port", "/dev/flexarm-does-not-exist", "status"],
+        "/dev/flexarm-does-not-exist",
+    );
+    // Nothing listens on port 1.
+    fails_with(&["--tcp", "127.0.0.1:1", "status"], "127.0.0.1:1");
+}
