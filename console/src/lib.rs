@@ -14,5 +14,6 @@
 pub mod client;
 pub mod params;
 pub mod transport;
+pub mod waypoints;
 
 pub use client::{Client, ConsoleError};

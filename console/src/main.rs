@@ -12,8 +12,8 @@ use std::time::Duration;
 
 use clap::{Parser, Subcommand};
 use flexarm_console::client::{Client, ConsoleError, HANDSHAKE};
-use flexarm_console::{params, transport};
-use flexarm_link::msg::{Mode, Move, Status};
+use flexarm_console::{params, transport, waypoints};
+use flexarm_link::msg::{Mode, Move, Status, WAYPOINTS_PER_CHUNK};
 use flexarm_link::{Command, Reply};
 
 /// The operator's console for the flexarm firmware.
@@ -100,6 +100,11 @@ enum MoveKind {
         #[arg(long)]
         ccw: bool,
     },
+    /// Through the joint waypoints of a CSV file (`theta1,theta2,dt`; docs/console.md).
+    Waypoints {
+        /// The file.
+        file: String,
+    },
 }
 
 fn main() -> ExitCode {
@@ -138,6 +143,11 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         }
         return Ok(());
     }
+    // A file's mistakes before any connection.
+    let path = match &cli.command {
+        Action::Move(MoveKind::Waypoints { file }) => Some(waypoints::read(file)?),
+        _ => None,
+    };
     let link = match (&cli.port, &cli.tcp) {
         (Some(p), None) => transport::serial(p, cli.baud)?,
         (None, Some(a)) => transport::tcp(a)?,
@@ -208,6 +218,28 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                         ramp_time: ramp,
                     },
                 ),
+                MoveKind::Waypoints { .. } => {
+                    let points = path.unwrap_or_default();
+                    for (k, chunk) in points.chunks(WAYPOINTS_PER_CHUNK).enumerate() {
+                        let first = k * WAYPOINTS_PER_CHUNK;
+                        let command = Command::Waypoints {
+                            first: first as u16,
+                            points: heapless::Vec::from_slice(chunk).map_err(|_| {
+                                ConsoleError::Usage("a chunk larger than a frame holds".into())
+                            })?,
+                        };
+                        match c.request(&format!("waypoints {first}…"), command)? {
+                            Reply::Done => {}
+                            r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+                        }
+                    }
+                    (
+                        "move waypoints",
+                        Move::Waypoints {
+                            count: points.len() as u16,
+                        },
+                    )
+                }
                 MoveKind::Circle {
                     centre,
                     radius,

@@ -239,3 +239,142 @@ fn a_port_that_does_not_exist_is_named() {
     // Nothing listens on port 1.
     fails_with(&["--tcp", "127.0.0.1:1", "status"], "127.0.0.1:1");
 }
+
+/// A waypoint file's mistakes are named by file, line and column, before any connection.
+#[test]
+fn a_waypoint_file_with_errors_is_named_by_line() {
+    let dir = std::env::temp_dir().join(format!("flexarm-console-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_string_lossy().into_owned()
+    };
+    let cases = [
+        ("empty.csv", "", "empty.csv:1: no header"),
+        (
+            "header.csv",
+            "a,b,c\n",
+            "header.csv:1: the header is `a,b,c`",
+        ),
+        (
+            "nan.csv",
+            "theta1,theta2,dt\n0.1,0.2,0.5\n# a comment\n0.3,nan,0.5\n",
+            "nan.csv:4: column `theta2`: `nan`",
+        ),
+        (
+            "short.csv",
+            "theta1,theta2,dt\n0.1,0.2\n",
+            "short.csv:2: 2 values, not 3",
+        ),
+        (
+            "dt.csv",
+            "theta1,theta2,dt\n0.1,0.2,0\n",
+            "dt.csv:2: column `dt`: 0 s, not positive",
+        ),
+        (
+            "none.csv",
+            "theta1,theta2,dt\n\n",
+            "none.csv:1: a header and no waypoint",
+        ),
+    ];
+    for (name, text, needle) in cases {
+        // No firmware listens: the file is refused before any connection is tried.
+        fails_with(
+            &[
+                "--tcp",
+                "127.0.0.1:1",
+                "move",
+                "waypoints",
+                &file(name, text),
+            ],
+            needle,
+        );
+    }
+    let many: String = std::iter::once("theta1,theta2,dt\n".to_string())
+        .chain((0..33).map(|k| format!("{},0,0.1\n", f64::from(k) * 0.01)))
+        .collect();
+    fails_with(
+        &[
+            "--tcp",
+            "127.0.0.1:1",
+            "move",
+            "waypoints",
+            &file("many.csv", &many),
+        ],
+        "many.csv:34: more than 32 waypoints",
+    );
+    fails_with(
+        &[
+            "--tcp",
+            "127.0.0.1:1",
+            "move",
+            "waypoints",
+            "/no/such/file.csv",
+        ],
+        "/no/such/file.csv: No such file",
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A waypoint file is uploaded in chunks of 8, in order, then run; the tool waits for its end.
+#[test]
+fn a_waypoint_file_is_uploaded_in_chunks_and_run() {
+    fn path_firmware(c: &Command) -> Option<Reply> {
+        use std::sync::atomic::{AtomicU16, Ordering};
+        static NEXT: AtomicU16 = AtomicU16::new(0);
+        match c {
+            Command::Waypoints { first, points } => {
+                // Chunks in order, each full but the last.
+                let ok = *first == NEXT.load(Ordering::Relaxed);
+                NEXT.store(first + points.len() as u16, Ordering::Relaxed);
+                Some(if ok {
+                    Reply::Done
+                } else {
+                    Reply::Refused(Refusal::Waypoints)
+                })
+            }
+            Command::Move(flexarm_link::msg::Move::Waypoints { count }) => {
+                Some(if *count == NEXT.load(Ordering::Relaxed) && *count == 20 {
+                    Reply::Done
+                } else {
+                    Reply::Refused(Refusal::Waypoints)
+                })
+            }
+            Command::Status => Some(Reply::Status(Status {
+                mode: Mode::Armed,
+                fault: None,
+                ticks: 1,
+                loads: [Load::default(); 2],
+                telemetry_dropped: 0,
+                link_stops: 0,
+                rx_bytes: 0,
+                rx_lost: 0,
+                stack_used: 0,
+            })),
+            other => ours(other),
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("flexarm-path-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("path.csv");
+    let csv: String = std::iter::once("theta1,theta2,dt\n".to_string())
+        .chain((0..20).map(|k| format!("{},{},0.2\n", f64::from(k) * 0.02, -f64::from(k) * 0.01)))
+        .collect();
+    std::fs::write(&p, csv).unwrap();
+    let port = firmware(path_firmware);
+    let o = flexarm(&[
+        "--tcp",
+        &format!("127.0.0.1:{port}"),
+        "move",
+        "waypoints",
+        &p.to_string_lossy(),
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(
+        out,
+        "move waypoints: done\nmove waypoints: ended, holding\n"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
