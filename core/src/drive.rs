@@ -320,7 +320,7 @@ impl<T: Real> Drive<T> {
             }
         }
         self.monitor
-            .heat(&self.motion, report.command.tau, ctrl.motor_period);
+            .update_heat(&self.motion, report.command.tau, ctrl.motor_period);
         self.tick(now);
         // A category-1 stop has ended: now the safe state.
         if let (Some(f), Mode::Armed) = (self.pending, self.mode) {

@@ -176,7 +176,7 @@ impl<T: Real> MotionMonitor<T> {
 
     /// The motors cool (or heat) by one period `dt` [s] under the torques `tau` [N·m]; called
     /// every motor period, armed or not (disarmed, `tau` is zero).
-    pub fn heat(&mut self, limits: &MotionLimits<T>, tau: Vector2<T>, dt: T) {
+    pub fn update_heat(&mut self, limits: &MotionLimits<T>, tau: Vector2<T>, dt: T) {
         let th = &limits.thermal;
         let k = dt / th.time_constant;
         let load = tau.component_div(&th.continuous);
@@ -186,11 +186,7 @@ impl<T: Real> MotionMonitor<T> {
     /// The torque limit the motors' heat allows, at most `rated` [N·m] (module docs).
     pub fn torque_limit(&self, limits: &MotionLimits<T>, rated: Vector2<T>) -> Vector2<T> {
         let th = &limits.thermal;
-        Vector2::from_fn(|j, _| {
-            let (h, r, c) = match j {
-                0 => (self.heat.x, rated.x, th.continuous.x),
-                _ => (self.heat.y, rated.y, th.continuous.y),
-            };
+        rated.zip_zip_map(&th.continuous, &self.heat, |r, c, h| {
             if h <= th.derate {
                 return r;
             }

@@ -402,7 +402,7 @@ fn the_thermal_model_is_its_closed_form() {
     let tau = Vector2::new(10.0, 0.0);
     let mut t = 0.0;
     while m.heat.x < l.thermal.trip {
-        m.heat(&l, tau, 1e-3);
+        m.update_heat(&l, tau, 1e-3);
         t += 1e-3;
     }
     let r2: f64 = (10.0f64 / 4.0).powi(2);

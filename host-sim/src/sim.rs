@@ -651,7 +651,7 @@ fn watch(
     dt: f64,
 ) {
     let verdict = monitor.check(limits, s);
-    monitor.heat(limits, s.tau, dt as f32);
+    monitor.update_heat(limits, s.tau, dt as f32);
     if let (Verdict::Trip(f) | Verdict::Stop(f), None) = (verdict, sum.motion_trip) {
         sum.motion_trip = Some((f, t));
     }

@@ -274,7 +274,7 @@ fn call_motion(
 ) -> (f32, u32) {
     timed((m, l, s), |(m, l, s)| {
         let v = m.check(l, s);
-        m.heat(l, s.tau, 1e-3);
+        m.update_heat(l, s.tau, 1e-3);
         if v == Verdict::Clear { m.heat.x } else { -1.0 }
     })
 }

@@ -438,7 +438,7 @@ fn flood_block(k: u16) -> Result<Vec<u8>, String> {
 /// misses a deadline, and the firmware answers throughout. (Its tracking error is not held to
 /// the host simulation's, as the full session's moves are: with `sleep=on` QEMU's timers follow
 /// the host's clock and the piezo timer, which steps the QEMU board's plant, slips against the
-/// motor timer by a varying amount, 2.5e-3 to 8e-3 rad of error from run to run.)
+/// motor timer by a varying amount, 2.5e-3 to 9e-3 rad of error from run to run.)
 ///
 /// The rate: QEMU's USART model takes one byte per turn of QEMU's main loop, about 40 kB per
 /// second of the host's time, and this session's QEMU (`-icount sleep=on`) keeps the idle
