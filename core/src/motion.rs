@@ -7,7 +7,7 @@
 //! |---|---|---|---|
 //! | following error | `\|θ_i − θ_d,i\| > following_i` | [`Fault::FollowingError`] | category 0 |
 //! | runaway | for `runaway_periods` in a row: `\|θ̇̂_i\| ≥ runaway_speed` and not falling while `τ_i θ̇̂_i < 0` with `\|τ_i\| ≥ runaway_torque_i` (the joint speeds up against its torque), and `\|θ_i − θ_d,i\| ≥ runaway_error` | [`Fault::Runaway`] | category 0 |
-//! | frozen encoder | for `frozen_periods` in a row: `\|τ_i\| ≥ frozen_torque_i` of one sign and the encoder's reading unchanged | [`Fault::FrozenEncoder`] | category 0 |
+//! | frozen encoder | for `frozen_periods` in a row: `\|τ_i\| ≥ frozen_torque_i` of one sign, the reference moving by at least `frozen_step` a period, and the encoder's reading unchanged | [`Fault::FrozenEncoder`] | category 0 |
 //! | overspeed | `\|θ̇̂_i\| > speed_i` | [`Fault::Overspeed`] | category 0 |
 //! | soft limit | a joint closer to the end of its range (`range_min`, `range_max`) than its stopping distance at `stop_accel` plus `range_margin`, moving towards it | [`Fault::SoftLimit`] | category 1 |
 //! | motor overload | the I²t state of a motor reaches `thermal.trip` | [`Fault::Overload`] | category 1 |
@@ -66,6 +66,11 @@ pub struct MotionLimits<T> {
     pub frozen_torque: Vector2<T>,
     /// Frozen encoder: consecutive motor periods without a change of the reading.
     pub frozen_periods: u32,
+    /// Frozen encoder: the least step of the reference in one motor period [rad] for the
+    /// period to count. A joint turning round under a large torque stays on one encoder count
+    /// for tens of milliseconds (the circle's joint 1: up to 23 ms at 3.5 N·m); its reference
+    /// turns round too, and such periods do not count.
+    pub frozen_step: T,
     /// The ends of the joint ranges the soft limit keeps the joints from [rad] (the sensors'
     /// range check is the hard limit behind them).
     pub range_min: Vector2<T>,
@@ -84,12 +89,18 @@ impl<T: Real> MotionLimits<T> {
     /// evidence): following error 0.05 rad (the truth plant's worst closed-loop error over the
     /// paper's moves and their Monte Carlo, times a margin); overspeed 4 rad/s (the moves are
     /// limited to 3); runaway at 0.2 rad/s against a torque of 1 N·m with an error of 0.01 rad,
-    /// for 10 ms; frozen encoder at 3 N·m of one sign for 20 ms; soft limits at the sensors'
+    /// for 10 ms; frozen encoder at 3 N·m of one sign for 20 ms while the reference moves at
+    /// 0.1 rad/s or more (the windows at least 2 and 3 periods); soft limits at the sensors'
     /// range (θ1 ±π, θ2 ±2.8 rad) with a 0.02 rad margin beyond the stopping distance at
     /// 10 rad/s²; motors rated 4 N·m continuous with a 20 s winding time constant, derating from
     /// 60 % of the rating's heat to the continuous torque at 90 %, faulting at 95 %.
     pub fn default_for(motor_hz: u32) -> Self {
-        let ms = |s: f64| ((s * f64::from(motor_hz)) as u32).max(1);
+        // The windows in periods, a few samples whatever the rate. At the QEMU board's 100 Hz
+        // 10 ms is one period, and one noisy speed estimate on the circle tripped the runaway
+        // check: it takes two (two differences of the speed). Two periods on one reading are
+        // ordinary there too (joint 2 held still by the reaction of joint 1 accelerating at
+        // 10 N·m): the frozen-encoder check takes three.
+        let periods = |s: f64, min: u32| ((s * f64::from(motor_hz)) as u32).max(min);
         let both = |x: f64| Vector2::new(T::c(x), T::c(x));
         Self {
             following: both(0.05),
@@ -97,9 +108,10 @@ impl<T: Real> MotionLimits<T> {
             runaway_speed: T::c(0.2),
             runaway_torque: both(1.0),
             runaway_error: T::c(0.01),
-            runaway_periods: ms(0.010),
+            runaway_periods: periods(0.010, 2),
             frozen_torque: both(3.0),
-            frozen_periods: ms(0.020),
+            frozen_periods: periods(0.020, 3),
+            frozen_step: T::c(0.1 / f64::from(motor_hz.max(1))),
             range_min: Vector2::new(T::c(-core::f64::consts::PI), T::c(-2.8)),
             range_max: Vector2::new(T::c(core::f64::consts::PI), T::c(2.8)),
             stop_accel: both(10.0),
@@ -144,8 +156,8 @@ pub struct MotionSample<T> {
 pub struct MotionMonitor<T> {
     runaway: [u32; 2],
     frozen: [u32; 2],
-    /// The previous period's measured angles, estimated speeds and torques.
-    previous: Option<(Vector2<T>, Vector2<T>, Vector2<T>)>,
+    /// The previous period's sample.
+    previous: Option<MotionSample<T>>,
     /// The motors' I²t states [units of the continuous rating].
     pub heat: Vector2<T>,
 }
@@ -165,6 +177,12 @@ impl<T: Real> MotionMonitor<T> {
             previous: None,
             heat: Vector2::zeros(),
         }
+    }
+
+    /// The trend checks' current streaks, `(runaway, frozen)` per joint [motor periods]: how
+    /// many periods in a row each has counted (it trips at its window).
+    pub fn streaks(&self) -> ([u32; 2], [u32; 2]) {
+        (self.runaway, self.frozen)
     }
 
     /// Forgets the motion's history (the motors' heat stays): after a disarm or a new arm.
@@ -200,8 +218,12 @@ impl<T: Real> MotionMonitor<T> {
     pub fn check(&mut self, limits: &MotionLimits<T>, s: &MotionSample<T>) -> Verdict {
         let l = limits;
         let e = s.theta - s.theta_d;
-        let previous = self.previous.replace((s.theta, s.speed, s.tau));
+        let previous = self.previous.replace(*s);
         let mut verdict = Verdict::Clear;
+        // A frozen reading is the least direct diagnosis: it names the fault only when no other
+        // category-0 check of either joint trips in the period (a reversed encoder on joint 1
+        // runs away, and its reaction holds joint 2 still against its torque).
+        let mut frozen_reading = false;
         let heat = self.heat;
         let counters = self.runaway.iter_mut().zip(self.frozen.iter_mut());
         for (j, (runaway, frozen)) in counters.enumerate() {
@@ -215,7 +237,7 @@ impl<T: Real> MotionMonitor<T> {
             }
             // Runaway: speeding up against the torque, off the reference. (A joint braking, even
             // saturated and behind its reference, slows down.)
-            let growing = previous.is_some_and(|(_, pv, _)| vj.abs() >= pick(&pv).abs());
+            let growing = previous.is_some_and(|p| vj.abs() >= pick(&p.speed).abs());
             let against = tj * vj < T::zero() && tj.abs() >= pick(&l.runaway_torque);
             let counts =
                 against && growing && vj.abs() >= l.runaway_speed && ej.abs() >= l.runaway_error;
@@ -223,26 +245,32 @@ impl<T: Real> MotionMonitor<T> {
             if *runaway >= l.runaway_periods {
                 return Verdict::Trip(Fault::Runaway);
             }
-            // Frozen encoder: a torque of one sign that should move the joint, a reading that
-            // does not. (A hold that chatters, its torque flipping sign every period, moves
-            // the joint less than a count and is not a frozen encoder.)
-            let still =
-                previous.is_some_and(|(pt, _, pu)| pick(&pt) == thj && pick(&pu) * tj > T::zero());
-            let counts = still && tj.abs() >= pick(&l.frozen_torque);
+            // Frozen encoder: a torque of one sign that should move the joint and a reference
+            // on the move, a reading that does not. (A hold that chatters, its torque flipping
+            // sign every period, moves the joint less than a count and is not a frozen encoder;
+            // nor is a joint turning round with its reference.)
+            let counts = tj.abs() >= pick(&l.frozen_torque)
+                && previous.is_some_and(|p| {
+                    pick(&p.theta) == thj
+                        && pick(&p.tau) * tj > T::zero()
+                        && (pick(&s.theta_d) - pick(&p.theta_d)).abs() >= l.frozen_step
+                });
             *frozen = if counts { frozen.saturating_add(1) } else { 0 };
-            if *frozen >= l.frozen_periods {
-                return Verdict::Trip(Fault::FrozenEncoder);
-            }
+            frozen_reading |= *frozen >= l.frozen_periods;
             // Soft limit: moving towards an end closer than the stopping distance.
-            let stop = vj * vj / (T::c(2.0) * pick(&l.stop_accel)) + l.range_margin;
-            let towards_max = vj > T::zero() && pick(&l.range_max) - thj <= stop;
-            let towards_min = vj < T::zero() && thj - pick(&l.range_min) <= stop;
+            // (`d ≤ v²/(2a) + margin`, multiplied out: no division.)
+            let within = |d: T| (d - l.range_margin) * T::c(2.0) * pick(&l.stop_accel) <= vj * vj;
+            let towards_max = vj > T::zero() && within(pick(&l.range_max) - thj);
+            let towards_min = vj < T::zero() && within(thj - pick(&l.range_min));
             if (towards_max || towards_min) && verdict == Verdict::Clear {
                 verdict = Verdict::Stop(Fault::SoftLimit);
             }
             if pick(&heat) >= l.thermal.trip && verdict == Verdict::Clear {
                 verdict = Verdict::Stop(Fault::Overload);
             }
+        }
+        if frozen_reading {
+            return Verdict::Trip(Fault::FrozenEncoder);
         }
         verdict
     }

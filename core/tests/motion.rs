@@ -163,7 +163,7 @@ fn the_nominal_move_runs_clean() {
 }
 
 /// Joint 1's encoder counts the other way: positive feedback. Measured: Runaway 112 ms after the
-/// move's start, joint 1 0.032 rad from its start, 0.84 rad/s at most, 0.041 rad of coast.
+/// move's start, joint 1 0.032 rad from its start, 0.83 rad/s at most, 0.041 rad of coast.
 #[test]
 fn a_reversed_encoder_is_caught_as_a_runaway_and_cut_in_category_0() {
     let b = moving(Injection::Reversed, 1.0);
@@ -421,6 +421,68 @@ fn the_thermal_model_is_its_closed_form() {
         let lim = m.torque_limit(&l, rated);
         assert!((lim.x - want).abs() < 1e-9 && lim.y == 10.0, "{h}: {lim:?}");
     }
+}
+
+/// The trend checks' windows at the QEMU board's 100 Hz, on samples fed to the monitor: one
+/// period of a joint speeding up against its torque does not trip (at one period's window the
+/// link session's circle tripped on the firmware), two do; a reading that stands still under
+/// a torque counts only while the reference moves (a joint turning round with its reference
+/// stays on one count for tens of milliseconds), and trips on the third period.
+#[test]
+fn the_trend_checks_judge_trends_not_samples() {
+    use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
+    let l = MotionLimits::<f32>::default_for(100);
+    assert_eq!((l.runaway_periods, l.frozen_periods), (2, 3));
+    let sample = |theta: f32, theta_d: f32, speed: f32, tau: f32| MotionSample {
+        theta: Vector2::new(theta, 0.0),
+        theta_d: Vector2::new(theta_d, 0.0),
+        speed: Vector2::new(speed, 0.0),
+        tau: Vector2::new(tau, 0.0),
+    };
+    // Runaway: 0.02 rad off, speeding up from 0.3 rad/s against −2 N·m.
+    let mut m = MotionMonitor::new();
+    let calm = sample(0.0, 0.0, 0.0, 0.0);
+    let runaway = |v: f32| sample(0.02, 0.0, v, -2.0);
+    assert_eq!(m.check(&l, &calm), Verdict::Clear);
+    assert_eq!(m.check(&l, &runaway(0.3)), Verdict::Clear);
+    assert_eq!(m.check(&l, &calm), Verdict::Clear);
+    assert_eq!(m.check(&l, &runaway(0.3)), Verdict::Clear);
+    assert_eq!(m.check(&l, &runaway(0.4)), Verdict::Trip(Fault::Runaway));
+    // Frozen: 4 N·m, the reading still; the reference still, then moving at 0.2 rad/s.
+    let mut m = MotionMonitor::new();
+    for _ in 0..10 {
+        assert_eq!(m.check(&l, &sample(0.1, 0.1, 0.0, 4.0)), Verdict::Clear);
+    }
+    let moving = |k: f32| sample(0.1, 0.1 + 0.002 * k, 0.0, 4.0);
+    for k in 1..3 {
+        assert_eq!(m.check(&l, &moving(k as f32)), Verdict::Clear);
+    }
+    assert_eq!(
+        m.check(&l, &moving(3.0)),
+        Verdict::Trip(Fault::FrozenEncoder)
+    );
+}
+
+/// When two category-0 checks trip in one period the more direct diagnosis names the fault,
+/// whichever joint it is on: joint 2 runs away, and joint 1, held by its reaction, reads still
+/// under its torque (joint 1 is checked first).
+#[test]
+fn a_runaway_is_named_before_the_frozen_reading_it_causes() {
+    use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
+    let l = MotionLimits::<f32>::default_for(100);
+    let mut m = MotionMonitor::new();
+    let sample = |k: f32| MotionSample {
+        theta: Vector2::new(0.5, 0.02),
+        theta_d: Vector2::new(0.5 + 0.002 * k, 0.0),
+        // 0, 0.1, 0.3, 0.6 rad/s: joint 2 counts from the third sample, joint 1 from the second.
+        speed: Vector2::new(0.0, 0.05 * k * (k - 1.0)),
+        tau: Vector2::new(4.0, -2.0),
+    };
+    for k in 1..4 {
+        assert_eq!(m.check(&l, &sample(k as f32)), Verdict::Clear);
+    }
+    assert_eq!(m.check(&l, &sample(4.0)), Verdict::Trip(Fault::Runaway));
+    assert_eq!(m.streaks(), ([0, 2], [3, 0]));
 }
 
 mod nominal {

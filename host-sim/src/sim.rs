@@ -367,6 +367,9 @@ pub struct Summary {
     /// The largest tracking error the motion checks saw, `|θ_measured − θ_d|` [rad], and the
     /// largest estimated joint speed [rad/s]: the evidence for their thresholds.
     pub motion_peaks: (f64, f64),
+    /// The longest streaks the trend checks counted, `(runaway, frozen)` over both joints
+    /// [motor periods]: a healthy run's must stay short of the windows.
+    pub motion_streaks: (u32, u32),
 }
 
 /// The motor-side controller of a run (one per run: its size does not matter).
@@ -658,6 +661,12 @@ fn watch(
     let e = f64::from((s.theta - s.theta_d).abs().max());
     let v = f64::from(s.speed.abs().max());
     sum.motion_peaks = (sum.motion_peaks.0.max(e), sum.motion_peaks.1.max(v));
+    let (runaway, frozen) = monitor.streaks();
+    let longest = |s: [u32; 2]| s[0].max(s[1]);
+    sum.motion_streaks = (
+        sum.motion_streaks.0.max(longest(runaway)),
+        sum.motion_streaks.1.max(longest(frozen)),
+    );
 }
 
 /// Runs the closed loop from rest at `θ_d(0)`; `record` keeps one [`Sample`] per motor period.

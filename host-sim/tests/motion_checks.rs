@@ -3,8 +3,11 @@
 //! A healthy run must never trip one (a false trip stops a good arm); the margins between the
 //! worst the runs show and the thresholds are the evidence for the thresholds (docs/safety.md).
 
+use flexarm_core::control::piezo::PiezoGains;
 use flexarm_core::motion::MotionLimits;
+use flexarm_core::trajectory::{Circle, JointTrajectory, Trapezoid};
 use flexarm_sim::montecarlo;
+use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource, simulate};
 use flexarm_sim::study::{Options, paper_cases, run};
 use flexarm_sim::truth_plant::TruthSpec;
 
@@ -15,12 +18,17 @@ fn the_papers_study_trips_no_motion_check() {
         ..Options::default()
     };
     let out = run(paper_cases(&opts).unwrap(), false, false).unwrap();
-    let (mut err, mut speed) = (0.0f64, 0.0f64);
+    let (mut err, mut speed, mut streaks) = (0.0f64, 0.0f64, (0, 0));
     for o in &out {
         let s = &o.summary;
         println!(
-            "{:16} {:20} trip {:?}, worst |θ − θ_d| {:.2e} rad, worst speed {:.2} rad/s",
-            o.case.scenario, o.case.controller, s.motion_trip, s.motion_peaks.0, s.motion_peaks.1
+            "{:16} {:20} trip {:?}, worst |θ − θ_d| {:.2e} rad, worst speed {:.2} rad/s, streaks {:?}",
+            o.case.scenario,
+            o.case.controller,
+            s.motion_trip,
+            s.motion_peaks.0,
+            s.motion_peaks.1,
+            s.motion_streaks
         );
         // The paper's printed gains leave joint 2 without stiffness: on the truth plant's
         // friction the arm ends 0.36 rad off, which a drive must fault.
@@ -43,6 +51,7 @@ fn the_papers_study_trips_no_motion_check() {
             );
             err = err.max(s.motion_peaks.0);
             speed = speed.max(s.motion_peaks.1);
+            streaks = longest(streaks, s.motion_streaks);
         }
     }
     let limits = MotionLimits::<f32>::default_for(1000);
@@ -55,6 +64,64 @@ fn the_papers_study_trips_no_motion_check() {
     );
     // The thresholds sit at least 3x (error) and 2x (speed) above the healthy runs' worst.
     assert!(3.0 * err <= following && 2.0 * speed <= overspeed);
+    assert_half_the_windows(&limits, streaks);
+}
+
+/// The longer of two `(runaway, frozen)` streaks, per check.
+fn longest(a: (u32, u32), b: (u32, u32)) -> (u32, u32) {
+    (a.0.max(b.0), a.1.max(b.1))
+}
+
+/// The trend checks' longest healthy streaks reach at most half their windows.
+fn assert_half_the_windows(limits: &MotionLimits<f32>, streaks: (u32, u32)) {
+    let windows = (limits.runaway_periods, limits.frozen_periods);
+    println!("longest streaks (runaway, frozen) {streaks:?} periods, windows {windows:?}");
+    assert!(2 * streaks.0 <= windows.0 && 2 * streaks.1 <= windows.1);
+}
+
+/// The QEMU board's loop (motor 100 Hz with the 1 kHz gains, piezo 1 kHz, its encoders and
+/// ADC, the observer, the gain `k_c` the link session sets) on the link session's moves, the
+/// paper's trapezoid and circle: no trip, the streaks short of half the windows (2 and 3
+/// periods at 100 Hz). The circle came within a sample of a runaway trip on the firmware
+/// (`cargo fw-link`) when the window was one period.
+#[test]
+fn the_qemu_boards_moves_trip_no_motion_check() {
+    let circle = Circle::<f32>::paper(0.3, 0.7).unwrap();
+    let moves = [
+        JointTrajectory::Trapezoid(Trapezoid::paper()),
+        JointTrajectory::Circle(circle),
+    ];
+    let limits = MotionLimits::<f32>::default_for(100);
+    let mut streaks = (0, 0);
+    for traj in &moves {
+        let cfg = SimConfig {
+            piezo: Some(PiezoGains {
+                k_c: 3.162,
+                ..Default::default()
+            }),
+            state: StateSource::Observer,
+            sensors: Sensors {
+                encoder_counts: Some(16384.0),
+                adc_bits: Some(12),
+                ..Sensors::default()
+            },
+            rates: Rates {
+                plant_dt: 1e-3,
+                motor_hz: 100.0,
+                piezo_hz: 1000.0,
+            },
+            duration: 6.0,
+            ..SimConfig::default()
+        };
+        let (s, _) = simulate(&cfg, traj, false).unwrap();
+        println!(
+            "QEMU board: trip {:?}, worst |θ − θ_d| {:.2e} rad, streaks {:?}",
+            s.motion_trip, s.motion_peaks.0, s.motion_streaks
+        );
+        assert_eq!(s.motion_trip, None);
+        streaks = longest(streaks, s.motion_streaks);
+    }
+    assert_half_the_windows(&limits, streaks);
 }
 
 /// 1000 runs of the paper's trapezoid with the arm's parameters perturbed by up to ±20 %, on
@@ -71,6 +138,10 @@ fn no_false_trip_in_1000_monte_carlo_runs() {
     );
     assert_eq!(runs.len(), 1000);
     assert_eq!(trips, 0);
+    let streaks = runs
+        .iter()
+        .fold((0, 0), |a, s| longest(a, s.motion_streaks));
+    assert_half_the_windows(&MotionLimits::default_for(1000), streaks);
 }
 
 /// 200 runs on the truth plant (six modes, real drives and amplifier) with every mode's
@@ -88,4 +159,8 @@ fn no_false_trip_in_200_truth_plant_monte_carlo_runs() {
     );
     assert_eq!(runs.len(), 200);
     assert_eq!(trips, 0);
+    let streaks = runs
+        .iter()
+        .fold((0, 0), |a, s| longest(a, s.motion_streaks));
+    assert_half_the_windows(&MotionLimits::default_for(1000), streaks);
 }

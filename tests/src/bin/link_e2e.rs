@@ -140,7 +140,7 @@ fn trapezoid(target: [f32; 2], move_time: f32, ramp_time: f32) -> Command {
 /// The largest |θ − θ_d| of `traj` from rest at its start on the host, with the piezo gain
 /// `k_c` [s]: the QEMU board's rates (motor 100 Hz, piezo 1 kHz, plant step 1 ms), its sensors
 /// (16384-count encoders, 12-bit film ADC, no noise or delay) and the firmware's controller with
-/// its observer.
+/// its observer. A motion check that trips on the host is an error: the firmware would fault.
 fn simulated_error(traj: &JointTrajectory<f32>, k_c: f32) -> Result<f64, String> {
     let move_time = match traj {
         JointTrajectory::Trapezoid(t) => t.profile.duration(),
@@ -169,6 +169,11 @@ fn simulated_error(traj: &JointTrajectory<f32>, k_c: f32) -> Result<f64, String>
         ..SimConfig::default()
     };
     let (s, _) = simulate(&cfg, traj, false).map_err(|e| e.to_string())?;
+    if let Some((fault, t)) = s.motion_trip {
+        return Err(format!(
+            "the host simulation of the move trips a motion check: {fault:?} at {t:.2} s"
+        ));
+    }
     Ok(s.max_error)
 }
 
