@@ -35,6 +35,8 @@ pub enum ConsoleError {
     Unexpected(String),
     /// A command line or file the tool cannot use.
     Usage(String),
+    /// Ctrl-C: what was done about it.
+    Interrupted(String),
 }
 
 impl std::fmt::Display for ConsoleError {
@@ -57,6 +59,7 @@ impl std::fmt::Display for ConsoleError {
             Self::Refused { what, why } => write!(f, "{what} refused: {}", refusal(*why)),
             Self::Unexpected(what) => write!(f, "unexpected answer: {what}"),
             Self::Usage(what) => write!(f, "{what}"),
+            Self::Interrupted(what) => write!(f, "interrupted: {what}"),
         }
     }
 }

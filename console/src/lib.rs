@@ -12,7 +12,10 @@
 //! Units are the link's (SI; angles in rad, torques in N·m, voltages in V, times in s).
 
 pub mod client;
+pub mod interrupt;
 pub mod params;
+pub mod qemu;
+pub mod record;
 pub mod transport;
 pub mod waypoints;
 

@@ -4,16 +4,19 @@
 //! ```text
 //! flexarm --tcp 127.0.0.1:4444 status
 //! flexarm --port /dev/ttyUSB0 arm
-//! flexarm --qemu move trapezoid --to 0.8,-0.5 --time 2 --ramp 0.5
+//! flexarm --qemu --arm record --seconds 4 out/ trapezoid --to 0.8,-0.5 --time 2 --ramp 0.5
+//! flexarm compare out/recording_firmware.csv
 //! ```
 
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Parser, Subcommand};
 use flexarm_console::client::{Client, ConsoleError, HANDSHAKE};
-use flexarm_console::{params, transport, waypoints};
-use flexarm_link::msg::{Mode, Move, Status, WAYPOINTS_PER_CHUNK};
+use flexarm_console::qemu::Qemu;
+use flexarm_console::{interrupt, params, record, transport, waypoints};
+use flexarm_link::msg::{Mode, Move, Status, WAYPOINTS_PER_CHUNK, Waypoint};
 use flexarm_link::{Command, Reply};
 
 /// The operator's console for the flexarm firmware.
@@ -26,9 +29,16 @@ struct Cli {
     /// The port's baud rate.
     #[arg(long, default_value_t = 921_600)]
     baud: u32,
-    /// The QEMU firmware's socket, `host:port` (`scripts/qemu-link` starts one).
-    #[arg(long)]
+    /// The QEMU firmware's socket, `host:port` (`scripts/qemu-serve` starts one).
+    #[arg(long, conflicts_with = "port")]
     tcp: Option<String>,
+    /// A QEMU firmware of this checkout for this invocation alone: built if needed, started,
+    /// and stopped at the end (Ctrl-C included).
+    #[arg(long, conflicts_with_all = ["port", "tcp"])]
+    qemu: bool,
+    /// Arm before the command (the firmware boots disarmed: `--qemu --arm move …`).
+    #[arg(long)]
+    arm: bool,
     /// How long the handshake waits for the firmware [s].
     #[arg(long, default_value_t = HANDSHAKE.as_secs_f64())]
     wait: f64,
@@ -63,9 +73,56 @@ enum Action {
         #[arg(allow_negative_numbers = true)]
         value: f32,
     },
-    /// Start a move, validated whole by the firmware.
+    /// Start a move, validated whole by the firmware, and wait for its end (Ctrl-C stops it).
     #[command(subcommand)]
     Move(MoveKind),
+    /// Record telemetry (every channel) to OUT: the simulator's CSV and figure, and the
+    /// description `compare` reads; optionally starting a move first.
+    Record {
+        /// How long [s].
+        #[arg(long)]
+        seconds: f64,
+        /// Motor periods per frame.
+        #[arg(long, default_value_t = 1)]
+        decimation: u16,
+        /// Replace files of the same name that no flexarm command wrote.
+        #[arg(long)]
+        force: bool,
+        /// The output folder.
+        out: PathBuf,
+        /// A move to start once the recording runs.
+        #[command(subcommand)]
+        then: Option<MoveKind>,
+    },
+    /// A recording (`record … MOVE`) against the simulator's run of the same move: the Eq. 37/38
+    /// indices of both, and `compare.svg` beside the recording.
+    Compare {
+        /// The recording's CSV (its `.toml` beside it).
+        recording: PathBuf,
+        /// Fail unless the recording's tracking indices (Eq. 37 ‖θ̃‖, max |θ̃|) are within this
+        /// factor of the simulation's.
+        #[arg(long)]
+        within: Option<f64>,
+        /// Replace a `compare.svg` that no flexarm command wrote.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Test builds (the QEMU `link-session` firmware): assert (`on`) or release (`off`) the
+    /// simulated amplifiers' fault line.
+    #[command(hide = true)]
+    TestAmplifierFault {
+        /// `on` or `off`.
+        #[arg(value_parser = ["on", "off"])]
+        state: String,
+    },
+    /// The fault recorder (the motor periods before the latched fault) to OUT as CSV and figure.
+    Faults {
+        /// The output folder.
+        out: PathBuf,
+        /// Replace files of the same name that no flexarm command wrote.
+        #[arg(long)]
+        force: bool,
+    },
 }
 
 #[derive(Subcommand)]
@@ -143,17 +200,35 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         }
         return Ok(());
     }
+    // Offline: a recording against the simulator.
+    if let Action::Compare {
+        recording,
+        within,
+        force,
+    } = &cli.command
+    {
+        return compare(recording, *within, *force);
+    }
     // A file's mistakes before any connection.
     let path = match &cli.command {
-        Action::Move(MoveKind::Waypoints { file }) => Some(waypoints::read(file)?),
+        Action::Move(MoveKind::Waypoints { file })
+        | Action::Record {
+            then: Some(MoveKind::Waypoints { file }),
+            ..
+        } => Some(waypoints::read(file)?),
         _ => None,
     };
-    let link = match (&cli.port, &cli.tcp) {
-        (Some(p), None) => transport::serial(p, cli.baud)?,
-        (None, Some(a)) => transport::tcp(a)?,
+    interrupt::install();
+    // Dropped last: QEMU outlives the session's last request.
+    let mut qemu = None;
+    let link = match (&cli.port, &cli.tcp, cli.qemu) {
+        (Some(p), None, false) => transport::serial(p, cli.baud)?,
+        (None, Some(a), false) => transport::tcp(a)?,
+        (None, None, true) => qemu.insert(Qemu::start()?).connect()?,
         _ => {
             return Err(ConsoleError::Usage(
-                "say where the firmware is: --port PATH (a board) or --tcp HOST:PORT (QEMU)".into(),
+                "say where the firmware is: --port PATH (a board), --tcp HOST:PORT or --qemu"
+                    .into(),
             ));
         }
     };
@@ -164,6 +239,12 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         )));
     }
     let mut c = Client::connect(link, Duration::from_secs_f64(cli.wait))?;
+    if cli.arm {
+        match c.request("arm", Command::Arm)? {
+            Reply::Done => println!("arm: done"),
+            r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+        }
+    }
     let done = |c: &mut Client, what: &str, command: Command| -> Result<(), ConsoleError> {
         match c.request(what, command)? {
             Reply::Done => {
@@ -209,59 +290,18 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             )?;
         }
         Action::Move(m) => {
-            let (what, m) = match m {
-                MoveKind::Trapezoid { to, time, ramp } => (
-                    "move trapezoid",
-                    Move::Trapezoid {
-                        target: pair("--to", &to)?,
-                        move_time: time,
-                        ramp_time: ramp,
-                    },
-                ),
-                MoveKind::Waypoints { .. } => {
-                    let points = path.unwrap_or_default();
-                    for (k, chunk) in points.chunks(WAYPOINTS_PER_CHUNK).enumerate() {
-                        let first = k * WAYPOINTS_PER_CHUNK;
-                        let command = Command::Waypoints {
-                            first: first as u16,
-                            points: heapless::Vec::from_slice(chunk).map_err(|_| {
-                                ConsoleError::Usage("a chunk larger than a frame holds".into())
-                            })?,
-                        };
-                        match c.request(&format!("waypoints {first}…"), command)? {
-                            Reply::Done => {}
-                            r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
-                        }
-                    }
-                    (
-                        "move waypoints",
-                        Move::Waypoints {
-                            count: points.len() as u16,
-                        },
-                    )
-                }
-                MoveKind::Circle {
-                    centre,
-                    radius,
-                    period,
-                    ramp,
-                    ccw,
-                } => (
-                    "move circle",
-                    Move::Circle {
-                        centre: pair("--centre", &centre)?,
-                        radius,
-                        period,
-                        ramp_time: ramp,
-                        clockwise: !ccw,
-                    },
-                ),
-            };
-            done(&mut c, what, Command::Move(m))?;
+            let (what, m) = to_move(m, path.as_deref())?;
+            start_move(&mut c, what, m, path.as_deref())?;
             // Stay on the line until the move has ended: the requests feed the link watchdog,
             // which would stop a move whose host went away.
             let ended = loop {
                 std::thread::sleep(Duration::from_millis(50));
+                if interrupt::requested() {
+                    interrupt::stop_arm(&mut c)?;
+                    return Err(ConsoleError::Interrupted(format!(
+                        "{what}: the arm was stopped short of the move's end"
+                    )));
+                }
                 match c.request("status", Command::Status)? {
                     Reply::Status(s) if matches!(s.mode, Mode::Moving | Mode::Stopping) => {}
                     Reply::Status(s) => break s,
@@ -278,7 +318,178 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 }
             }
         }
+        Action::Record {
+            seconds,
+            decimation,
+            force,
+            out,
+            then,
+        } => {
+            if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
+                return Err(ConsoleError::Usage(format!(
+                    "--seconds {seconds}: give 0 to 3600 s"
+                )));
+            }
+            let mv = then.map(|m| to_move(m, path.as_deref())).transpose()?;
+            let r = record::record(
+                &mut c,
+                seconds,
+                decimation,
+                mv.map(|(_, m)| m),
+                &mut |c: &mut Client| match mv {
+                    Some((what, m)) => start_move(c, what, m, path.as_deref()),
+                    None => Ok(()),
+                },
+            )?;
+            let (frames, lost) = (r.info.frames, r.info.lost);
+            let names = record::save(r, &out, force)?;
+            println!(
+                "record: {frames} frames, {lost} lost; wrote {} in {}",
+                names.join(", "),
+                out.display()
+            );
+        }
+        Action::Faults { out, force } => faults(&mut c, &out, force)?,
+        Action::TestAmplifierFault { state } => done(
+            &mut c,
+            &format!("test-amplifier-fault {state}"),
+            Command::TestAmplifierFault(state == "on"),
+        )?,
+        Action::Compare { .. } => {}
     }
+    Ok(())
+}
+
+/// The move a subcommand names (a waypoint path's points come from `path`, read before).
+fn to_move(m: MoveKind, path: Option<&[Waypoint]>) -> Result<(&'static str, Move), ConsoleError> {
+    Ok(match m {
+        MoveKind::Trapezoid { to, time, ramp } => (
+            "move trapezoid",
+            Move::Trapezoid {
+                target: pair("--to", &to)?,
+                move_time: time,
+                ramp_time: ramp,
+            },
+        ),
+        MoveKind::Waypoints { .. } => (
+            "move waypoints",
+            Move::Waypoints {
+                count: path.map_or(0, <[Waypoint]>::len) as u16,
+            },
+        ),
+        MoveKind::Circle {
+            centre,
+            radius,
+            period,
+            ramp,
+            ccw,
+        } => (
+            "move circle",
+            Move::Circle {
+                centre: pair("--centre", &centre)?,
+                radius,
+                period,
+                ramp_time: ramp,
+                clockwise: !ccw,
+            },
+        ),
+    })
+}
+
+/// Uploads a path's waypoints in chunks, then starts the move.
+fn start_move(
+    c: &mut Client,
+    what: &str,
+    m: Move,
+    path: Option<&[Waypoint]>,
+) -> Result<(), ConsoleError> {
+    if let (Move::Waypoints { .. }, Some(points)) = (m, path) {
+        for (k, chunk) in points.chunks(WAYPOINTS_PER_CHUNK).enumerate() {
+            let first = k * WAYPOINTS_PER_CHUNK;
+            let command = Command::Waypoints {
+                first: first as u16,
+                points: heapless::Vec::from_slice(chunk)
+                    .map_err(|_| ConsoleError::Usage("a chunk larger than a frame holds".into()))?,
+            };
+            match c.request(&format!("waypoints {first}…"), command)? {
+                Reply::Done => {}
+                r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+            }
+        }
+    }
+    match c.request(what, Command::Move(m))? {
+        Reply::Done => {
+            println!("{what}: started");
+            Ok(())
+        }
+        r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
+    }
+}
+
+/// `compare`: the table, the figure, and the verdict of `--within`.
+fn compare(
+    recording: &std::path::Path,
+    within: Option<f64>,
+    force: bool,
+) -> Result<(), ConsoleError> {
+    let c = record::compare(recording)?;
+    print!("{}", record::table(&c));
+    println!(
+        "aligned on the reference: mean |θ_d,recording − θ_d,simulation| {:.1e} rad",
+        c.reference_gap
+    );
+    let dir = recording
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let figure = record::save_comparison(&c, dir, force)?;
+    println!("compare: wrote {}", figure.display());
+    if let Some(f) = within {
+        let (r, s) = (&c.recorded, &c.simulated);
+        let worst = (r.l2_error / s.l2_error).max(r.max_error / s.max_error);
+        // A NaN ratio (a simulation without error) fails too.
+        if !matches!(
+            worst.partial_cmp(&f),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        ) {
+            return Err(ConsoleError::Unexpected(format!(
+                "the recording tracks {worst:.2} times worse than the simulation (allowed {f})"
+            )));
+        }
+        println!("compare: within {f} times the simulation's tracking ({worst:.2})");
+    }
+    Ok(())
+}
+
+/// `faults`: every page of the recorder, to `faults_firmware.csv` and `.svg`.
+fn faults(c: &mut Client, out: &std::path::Path, force: bool) -> Result<(), ConsoleError> {
+    let mut samples = Vec::new();
+    let mut fault = None;
+    loop {
+        let page = match c.request(
+            "faults",
+            Command::Faults {
+                from: samples.len() as u16,
+            },
+        )? {
+            Reply::Faults(p) => p,
+            r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+        };
+        fault = fault.or(page.fault);
+        let done = page.samples.is_empty();
+        samples.extend(page.samples.iter().copied());
+        if done || samples.len() >= usize::from(page.total) {
+            break;
+        }
+    }
+    let names = record::save_faults(&samples, c.hello.motor_hz, out, force)?;
+    let name = fault.map_or("none".to_string(), |f| format!("{f} ({})", fault_name(f)));
+    println!(
+        "faults: fault {name}, {} motor periods recorded; wrote {} in {}",
+        samples.len(),
+        names.join(", "),
+        out.display()
+    );
     Ok(())
 }
 

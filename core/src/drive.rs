@@ -186,6 +186,19 @@ pub struct Plan<T> {
     pub duration: T,
 }
 
+impl<T: Copy> Plan<T> {
+    /// The trajectory the drive runs (a path's first segment), from `t = 0` at the move's start:
+    /// what a host simulates to compare a recording with the model (`flexarm compare`).
+    pub fn trajectory(&self) -> JointTrajectory<T> {
+        self.trajectory
+    }
+
+    /// Whether it is a waypoint path (the drive switches segments as it runs).
+    pub fn is_path(&self) -> bool {
+        self.segments > 0
+    }
+}
+
 /// Points at which a circle's speed, acceleration and torque are checked.
 const CIRCLE_CHECKS: usize = 200;
 /// Poses of each path segment at which the torque is checked.

@@ -9,11 +9,77 @@ use plotters::prelude::*;
 
 use crate::study::{Outcome, label};
 
+/// The header of a trace's CSV ([`write_csv`], [`read_csv`]).
+pub const CSV_HEADER: &str = "t_s,theta1_rad,theta2_rad,theta1_d_rad,theta2_d_rad,delta1,delta2,delta1_dot,delta2_dot,delta1_seen,delta2_seen,tip_m,tau1_Nm,tau2_Nm,v_a_V,v_f_V";
+
+/// Reads a trace written by [`write_csv`] (a run of the simulator or a recording of the
+/// firmware, `flexarm record`); an error names the file, the line and the column. `NaN` stands
+/// for a value the source did not have (a recording has no modal rates).
+pub fn read_csv(path: &Path) -> Result<Vec<crate::sim::Sample>, String> {
+    use crate::sim::Sample;
+    use flexarm_core::plant::State;
+    use nalgebra::{Vector2, Vector4};
+    let shown = path.display();
+    let text = fs::read_to_string(path).map_err(|e| format!("{shown}: {e}"))?;
+    let mut lines = text.lines();
+    if lines.next().map(str::trim) != Some(CSV_HEADER) {
+        return Err(format!(
+            "{shown}:1: not a flexarm trace (the header must be {CSV_HEADER})"
+        ));
+    }
+    let mut trace = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let n = i + 2;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let mut v = [0.0f64; 16];
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != v.len() {
+            return Err(format!(
+                "{shown}:{n}: {} values, the header names {}",
+                fields.len(),
+                v.len()
+            ));
+        }
+        for (k, (slot, f)) in v.iter_mut().zip(&fields).enumerate() {
+            let name = CSV_HEADER.split(',').nth(k).unwrap_or("?");
+            *slot = f
+                .trim()
+                .parse()
+                .map_err(|_| format!("{shown}:{n}: {name} = {f:?} is not a number"))?;
+            if k != 7 && k != 8 && !slot.is_finite() {
+                return Err(format!("{shown}:{n}: {name} = {f} is not finite"));
+            }
+        }
+        if let Some(prev) = trace.last().map(|p: &Sample| p.t)
+            && v[0] <= prev
+        {
+            return Err(format!("{shown}:{n}: t_s = {} does not increase", v[0]));
+        }
+        trace.push(Sample {
+            t: v[0],
+            x: State {
+                q: Vector4::new(v[1], v[2], v[5], v[6]),
+                qd: Vector4::new(f64::NAN, f64::NAN, v[7], v[8]),
+            },
+            q_d: Vector2::new(v[3], v[4]),
+            delta_seen: Vector2::new(v[9], v[10]),
+            tip: v[11],
+            tau: Vector2::new(v[12], v[13]),
+            v_a: v[14],
+            v_f: v[15],
+        });
+    }
+    if trace.len() < 2 {
+        return Err(format!("{shown}: fewer than two samples"));
+    }
+    Ok(trace)
+}
+
 /// Writes `<scenario>_<controller>.csv`: one row per motor period.
 pub fn write_csv(dir: &Path, o: &Outcome) -> std::io::Result<()> {
-    let mut s = String::from(
-        "t_s,theta1_rad,theta2_rad,theta1_d_rad,theta2_d_rad,delta1,delta2,delta1_dot,delta2_dot,delta1_seen,delta2_seen,tip_m,tau1_Nm,tau2_Nm,v_a_V,v_f_V\n",
-    );
+    let mut s = format!("{CSV_HEADER}\n");
     for p in &o.trace {
         let q = &p.x.q;
         let _ = writeln!(
@@ -81,6 +147,16 @@ fn panel(
     unit: &str,
     series: &[Series],
 ) -> Result<(), Box<dyn std::error::Error>> {
+    // A value the source did not have (`NaN`: the fault recorder has no V_a) is not drawn.
+    let series: Vec<Series> = series
+        .iter()
+        .map(|(n, pts)| {
+            (
+                *n,
+                pts.iter().copied().filter(|p| p.1.is_finite()).collect(),
+            )
+        })
+        .collect();
     let t_max = series
         .iter()
         .flat_map(|s| s.1.iter().map(|p| p.0))
@@ -166,6 +242,48 @@ pub fn write_figure(dir: &Path, o: &Outcome) -> Result<(), Box<dyn std::error::E
         "N·m",
         &[("τ1", s(&|p| p.tau.x)), ("τ2", s(&|p| p.tau.y))],
     )?;
+    root.present()?;
+    Ok(())
+}
+
+/// Writes `path`: two traces of the same move on the same axes (joint errors, mode 1, tip,
+/// `V_a`, torque), one colour per trace.
+pub fn write_comparison(
+    path: &Path,
+    title: &str,
+    a: (&'static str, &[crate::sim::Sample]),
+    b: (&'static str, &[crate::sim::Sample]),
+) -> Result<(), Box<dyn std::error::Error>> {
+    use crate::sim::Sample;
+    let root = SVGBackend::new(path, (1000, 1650)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(title, ("sans-serif", 22))?;
+    let panels = root.split_evenly((6, 1));
+    let s = |tr: &[Sample], f: &dyn Fn(&Sample) -> f64| {
+        tr.iter().map(|p| (p.t, f(p))).collect::<Vec<_>>()
+    };
+    let both = |f: &dyn Fn(&Sample) -> f64| -> [Series; 2] { [(a.0, s(a.1, f)), (b.0, s(b.1, f))] };
+    panel(
+        &panels[0],
+        "Joint 1 tracking error θ1 − θ1d",
+        "rad",
+        &both(&|p| p.x.q.x - p.q_d.x),
+    )?;
+    panel(
+        &panels[1],
+        "Joint 2 tracking error θ2 − θ2d",
+        "rad",
+        &both(&|p| p.x.q.y - p.q_d.y),
+    )?;
+    panel(&panels[2], "Mode 1 δ1", "√kg·m", &both(&|p| p.x.q.z))?;
+    panel(&panels[3], "Tip deflection", "m", &both(&|p| p.tip))?;
+    panel(
+        &panels[4],
+        "Piezo actuator voltage V_a",
+        "V",
+        &both(&|p| p.v_a),
+    )?;
+    panel(&panels[5], "Motor torque τ1", "N·m", &both(&|p| p.tau.x))?;
     root.present()?;
     Ok(())
 }

@@ -669,6 +669,55 @@ fn watch(
     );
 }
 
+/// The indices of a trace (Eqs. 37 and 38 over its whole length, the means over its last
+/// `tail_window` seconds, the peaks), each sample weighted by the time to the next: what
+/// [`simulate`] computes as it runs, for a trace from elsewhere (a recording of the firmware,
+/// `flexarm record`). The motion checks' fields stay empty.
+pub fn summarize(trace: &[Sample], tail_window: f64) -> Summary {
+    let mut sum = Summary::default();
+    let (Some(first), Some(last)) = (trace.first(), trace.last()) else {
+        return sum;
+    };
+    let dt = if trace.len() > 1 {
+        (last.t - first.t) / (trace.len() - 1) as f64
+    } else {
+        0.0
+    };
+    let duration = last.t - first.t + dt;
+    let (mut l2_delta, mut l2_error, mut l2_tip) =
+        (L2Norm::default(), L2Norm::default(), L2Norm::default());
+    let mut tail_err = TailMean::<f64, 2>::new(duration, tail_window);
+    let mut tail_delta = TailMean::<f64, 2>::new(duration, tail_window);
+    for p in trace {
+        let t = p.t - first.t;
+        let err = Vector2::new(p.x.q.x, p.x.q.y) - p.q_d;
+        let delta = Vector2::new(p.x.q.z, p.x.q.w);
+        l2_delta.add(&delta, dt);
+        l2_error.add(&err, dt);
+        l2_tip.add(&nalgebra::Vector1::new(p.tip), dt);
+        tail_err.add(t, &err, dt);
+        tail_delta.add(t, &delta, dt);
+        sum.max_error = sum.max_error.max(err.abs().max());
+        for i in 0..2 {
+            sum.max_tau[i] = sum.max_tau[i].max(p.tau[i].abs());
+        }
+        sum.max_v_a = sum.max_v_a.max(p.v_a.abs());
+        sum.max_tip = sum.max_tip.max(p.tip.abs());
+    }
+    sum.l2_delta = l2_delta.value();
+    sum.l2_error = l2_error.value();
+    sum.l2_tip = l2_tip.value();
+    let (te, tea, tda) = (
+        tail_err.signed(),
+        tail_err.absolute(),
+        tail_delta.absolute(),
+    );
+    sum.tail_error = [te.x, te.y];
+    sum.tail_error_abs = [tea.x, tea.y];
+    sum.tail_delta_abs = [tda.x, tda.y];
+    sum
+}
+
 /// Runs the closed loop from rest at `θ_d(0)`; `record` keeps one [`Sample`] per motor period.
 pub fn simulate(
     cfg: &SimConfig,

@@ -1,0 +1,43 @@
+//! Ctrl-C: the console catches it, so that a running move is stopped (category 1, the drive's
+//! controlled stop) before the tool exits, and a QEMU it started is shut down by its guard.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use flexarm_link::msg::Mode;
+use flexarm_link::{Command, Reply};
+
+use crate::client::{Client, ConsoleError};
+
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Catches Ctrl-C from now on (a second handler is not installed).
+pub fn install() {
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
+}
+
+/// Whether Ctrl-C was pressed.
+pub fn requested() -> bool {
+    INTERRUPTED.load(Ordering::SeqCst)
+}
+
+/// Stops the arm: a controlled stop of a running move, waited for until the drive holds (at
+/// most 10 s, then the safe state).
+pub fn stop_arm(c: &mut Client) -> Result<(), ConsoleError> {
+    let _ = c.ask(Command::Stop)?;
+    let start = Instant::now();
+    loop {
+        match c.request("status", Command::Status)? {
+            Reply::Status(s) if matches!(s.mode, Mode::Moving | Mode::Stopping) => {}
+            Reply::Status(_) => return Ok(()),
+            r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+        }
+        if start.elapsed() > Duration::from_secs(10) {
+            let _ = c.ask(Command::Estop)?;
+            return Err(ConsoleError::Interrupted(
+                "the stop did not end within 10 s: emergency stop sent".into(),
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}

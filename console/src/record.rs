@@ -1,0 +1,528 @@
+//! `record` and `compare`: telemetry to the simulator's CSV and figure, and a recording against
+//! the simulator's run of the same move.
+//!
+//! A recording is three files in the output folder (written through `flexarm_sim::outdir`:
+//! staged, then moved into place; a file no flexarm command wrote is never replaced):
+//! - `recording_firmware.csv`: the simulator's trace format (`flexarm_sim::output::write_csv`),
+//!   one row per telemetry frame. The firmware streams its *estimates*: θ̂ and δ̂ in the state
+//!   columns, `θ_d = θ̂ − (θ̂ − θ_d)` from the error channel, the tip deflection computed from
+//!   them with the paper's model; the modal rates, not streamed, are `NaN`.
+//! - `recording_firmware.svg`: the simulator's figure of a run, of the recording.
+//! - `recording_firmware.toml`: what `compare` needs: the firmware, its loop rates, `k_c`, the
+//!   move and when it started, the frames lost.
+//!
+//! `compare` plans the recorded move with the core's drive (the firmware's code), simulates it
+//! at the firmware's rates with its observer and sensors (`flexarm_sim::sim`), aligns the two on
+//! the reference θ_d, and prints the Eq. 37/38 indices of both; `--within F` fails when the
+//! recording's tracking indices exceed `F` times the simulation's.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use flexarm_core::Vector2;
+use flexarm_core::control::motor::MotorLaw;
+use flexarm_core::controller::Controller;
+use flexarm_core::drive::{Drive, MoveLimits, MoveRequest};
+use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
+use flexarm_core::plant::State;
+use flexarm_core::time::Ticks;
+use flexarm_core::trajectory::JointTrajectory;
+use flexarm_link::msg::{Channels, Move, Param, Telemetry};
+use flexarm_link::{Command, Reply};
+use flexarm_sim::outdir::OutDir;
+use flexarm_sim::sim::{
+    Rates, Sample, Sensors, SimConfig, StateSource, Summary, simulate, summarize,
+};
+use flexarm_sim::study::{Case, Outcome};
+use serde::{Deserialize, Serialize};
+
+use crate::client::{Client, ConsoleError};
+use crate::interrupt;
+
+/// The recording's files' stem.
+pub const STEM: &str = "recording_firmware";
+
+/// What `compare` needs besides the trace (`recording_firmware.toml`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Info {
+    /// The firmware's build name.
+    pub build: String,
+    /// Motor loop [Hz].
+    pub motor_hz: u32,
+    /// Piezo loop [Hz].
+    pub piezo_hz: u32,
+    /// Motor periods per frame.
+    pub decimation: u16,
+    /// The piezo gain the firmware ran [s].
+    pub k_c: f32,
+    /// Frames recorded.
+    pub frames: usize,
+    /// Frames lost on the way (gaps in the sequence numbers).
+    pub lost: u64,
+    /// The move's start in the recording's time [s], if the recording started one.
+    pub start_s: Option<f64>,
+    /// The pose held when the move started (the estimate) [rad].
+    pub from: [f32; 2],
+    /// The move.
+    #[serde(rename = "move")]
+    pub mv: Option<Move>,
+}
+
+/// A finished recording.
+pub struct Recording {
+    /// One sample per frame.
+    pub trace: Vec<Sample>,
+    /// The sidecar.
+    pub info: Info,
+}
+
+/// The frame's values as a sample at `t` [s] (all channels, in [`Channels`] order).
+fn sample(f: &Telemetry, t: f64, model: &flexarm_core::model::Model<f64>) -> Option<Sample> {
+    let v: Vec<f64> = f.values.iter().map(|&x| f64::from(x)).collect();
+    let [e1, e2, th1, th2, d1, d2, tau1, tau2, v_a, v_f, ..] = v[..] else {
+        return None;
+    };
+    let q = flexarm_core::Vector4::new(th1, th2, d1, d2);
+    Some(Sample {
+        t,
+        x: State {
+            q,
+            qd: flexarm_core::Vector4::new(f64::NAN, f64::NAN, f64::NAN, f64::NAN),
+        },
+        q_d: Vector2::new(th1 - e1, th2 - e2),
+        delta_seen: Vector2::new(d1, d2),
+        tau: Vector2::new(tau1, tau2),
+        v_a,
+        v_f,
+        tip: model.tip_deflection(&q),
+    })
+}
+
+/// Records `seconds` of telemetry at `decimation`, first starting `start` (a move, uploaded
+/// and started by the caller's closure) if given. Keeps the link watchdog fed; after Ctrl-C
+/// stops the arm and returns an error, writing nothing.
+pub fn record(
+    c: &mut Client,
+    seconds: f64,
+    decimation: u16,
+    mv: Option<Move>,
+    start: &mut dyn FnMut(&mut Client) -> Result<(), ConsoleError>,
+) -> Result<Recording, ConsoleError> {
+    let hello = c.hello.clone();
+    let motor_hz = f64::from(hello.motor_hz);
+    let k_c = match c.request("get kc", Command::Get(Param::Kc))? {
+        Reply::Value(v) => v,
+        r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+    };
+    let dropped_before = dropped(c)?;
+    match c.request(
+        "subscribe",
+        Command::Subscribe {
+            decimation,
+            channels: Channels(Channels::ALL),
+        },
+    )? {
+        Reply::Done => {}
+        r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+    }
+    // The first frame: the recording's time zero and the pose held.
+    let mut frames = Vec::new();
+    let wait = Instant::now();
+    while frames.is_empty() {
+        if wait.elapsed() > Duration::from_secs(2) {
+            return Err(ConsoleError::Timeout("the first telemetry frame".into()));
+        }
+        c.ask(Command::Ping)?;
+        frames.extend(c.take_telemetry());
+    }
+    let tick0 = frames[0].tick;
+    let mut start_s = None;
+    if mv.is_some() {
+        frames.extend(c.take_telemetry());
+        let last = frames.last().map_or(tick0, |f| f.tick);
+        start(c)?;
+        start_s = Some((last + 1 - tick0) as f64 / motor_hz);
+    }
+    let from = frames
+        .last()
+        .and_then(|f| f.values.get(2..4))
+        .map_or([0.0; 2], |v| [v[0], v[1]]);
+    let end_tick = tick0 + (seconds * motor_hz).round() as u64;
+    let bar = progress(seconds);
+    // Real time plus a margin: a board whose stream stops does not hang the recording.
+    let deadline = Instant::now() + Duration::from_secs_f64(seconds * 1.5 + 5.0);
+    while frames.last().is_none_or(|f| f.tick < end_tick) {
+        if interrupt::requested() {
+            bar.abandon();
+            interrupt::stop_arm(c)?;
+            return Err(ConsoleError::Interrupted(
+                "the arm was stopped; nothing was written".into(),
+            ));
+        }
+        if Instant::now() > deadline {
+            bar.abandon();
+            return Err(ConsoleError::Timeout(format!(
+                "{seconds} s of telemetry (the stream stopped after {} frames)",
+                frames.len()
+            )));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+        c.ask(Command::Ping)?;
+        frames.extend(c.take_telemetry());
+        if let Some(f) = frames.last() {
+            bar.set_position(((f.tick.saturating_sub(tick0)) as f64 / motor_hz * 10.0) as u64);
+        }
+    }
+    c.request("unsubscribe", Command::Unsubscribe)?;
+    frames.extend(c.take_telemetry());
+    frames.retain(|f| f.tick <= end_tick);
+    bar.finish_and_clear();
+    let lost: u64 = frames
+        .windows(2)
+        .map(|w| u64::from(w[1].seq.wrapping_sub(w[0].seq).saturating_sub(1)))
+        .sum();
+    let dropped = dropped(c)?.saturating_sub(dropped_before);
+    let model = paper_model();
+    let trace: Vec<Sample> = frames
+        .iter()
+        .filter_map(|f| sample(f, (f.tick - tick0) as f64 / motor_hz, &model))
+        .collect();
+    let info = Info {
+        build: hello.build.to_string(),
+        motor_hz: hello.motor_hz,
+        piezo_hz: hello.piezo_hz,
+        decimation,
+        k_c,
+        frames: trace.len(),
+        lost: lost + u64::from(dropped),
+        start_s,
+        from,
+        mv,
+    };
+    Ok(Recording { trace, info })
+}
+
+fn dropped(c: &mut Client) -> Result<u32, ConsoleError> {
+    match c.request("status", Command::Status)? {
+        Reply::Status(s) => Ok(s.telemetry_dropped),
+        r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
+    }
+}
+
+/// A progress bar in tenths of a second, on a terminal only.
+fn progress(seconds: f64) -> indicatif::ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new((seconds * 10.0).round() as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "recording [{bar:40}] {pos}/{len} tenths of a second",
+    ) {
+        bar.set_style(style);
+    }
+    bar
+}
+
+/// A trace as the study's outcome, for its CSV and figure writers.
+fn outcome(trace: Vec<Sample>, scenario: &'static str) -> Outcome {
+    let summary = summarize(&trace, tail_window(&trace));
+    Outcome {
+        case: Case {
+            scenario,
+            controller: "firmware",
+            config: SimConfig::default(),
+            trajectory: JointTrajectory::Hold(Vector2::zeros()),
+        },
+        summary,
+        trace,
+    }
+}
+
+/// Eq. 38's window: the paper's 3 s, or half of a shorter trace.
+fn tail_window(trace: &[Sample]) -> f64 {
+    let span = match (trace.first(), trace.last()) {
+        (Some(a), Some(b)) => b.t - a.t,
+        _ => 0.0,
+    };
+    3.0f64.min(span / 2.0)
+}
+
+/// Writes the recording's three files into `out`; returns their names.
+pub fn save(r: Recording, out: &Path, force: bool) -> Result<Vec<String>, ConsoleError> {
+    let dir = OutDir::open(out, "record", force).map_err(ConsoleError::Io)?;
+    let text = toml::to_string(&r.info)
+        .map_err(|e| ConsoleError::Io(format!("the recording's description: {e}")))?;
+    let o = outcome(r.trace, "recording");
+    let staged = dir.staging();
+    std::fs::write(staged.join(format!("{STEM}.toml")), text)
+        .and_then(|()| flexarm_sim::output::write_csv(staged, &o))
+        .map_err(|e| ConsoleError::Io(format!("{}: {e}", out.display())))?;
+    flexarm_sim::output::write_figure(staged, &o)
+        .map_err(|e| ConsoleError::Io(format!("the figure: {e}")))?;
+    dir.commit().map_err(ConsoleError::Io)
+}
+
+/// Writes the fault recorder's samples (one per motor period before the fault, oldest first)
+/// into `out` as `faults_firmware.csv` and `.svg`, in the trace format: the measured angles in
+/// the state columns, `θ_d = θ − (θ − θ_d)`, the estimated δ̂, the torques and `V_f`; `V_a`, not
+/// recorded, is `NaN` (and not drawn). Time 0 is the first sample.
+pub fn save_faults(
+    samples: &[flexarm_link::msg::RecordedSample],
+    motor_hz: u32,
+    out: &Path,
+    force: bool,
+) -> Result<Vec<String>, ConsoleError> {
+    let Some(first) = samples.first() else {
+        return Err(ConsoleError::Usage(
+            "the fault recorder holds nothing: no fault since boot".into(),
+        ));
+    };
+    let model = paper_model();
+    let trace: Vec<Sample> = samples
+        .iter()
+        .map(|r| {
+            let f = |x: [f32; 2]| Vector2::new(f64::from(x[0]), f64::from(x[1]));
+            let (theta, delta) = (f(r.theta), f(r.delta));
+            let q = flexarm_core::Vector4::new(theta.x, theta.y, delta.x, delta.y);
+            Sample {
+                t: (r.tick - first.tick) as f64 / f64::from(motor_hz.max(1)),
+                x: State {
+                    q,
+                    qd: flexarm_core::Vector4::repeat(f64::NAN),
+                },
+                q_d: theta - f(r.error),
+                delta_seen: delta,
+                tau: f(r.tau),
+                v_a: f64::NAN,
+                v_f: f64::from(r.v_f),
+                tip: model.tip_deflection(&q),
+            }
+        })
+        .collect();
+    let dir = OutDir::open(out, "faults", force).map_err(ConsoleError::Io)?;
+    let o = outcome(trace, "faults");
+    flexarm_sim::output::write_csv(dir.staging(), &o)
+        .map_err(|e| ConsoleError::Io(format!("{}: {e}", out.display())))?;
+    flexarm_sim::output::write_figure(dir.staging(), &o)
+        .map_err(|e| ConsoleError::Io(format!("the figure: {e}")))?;
+    dir.commit().map_err(ConsoleError::Io)
+}
+
+/// The paper's model in `f64` (the firmware's), for the tip deflection.
+fn paper_model() -> flexarm_core::model::Model<f64> {
+    flexarm_core::model::Model::new(flexarm_core::params::ArmParams::default())
+}
+
+/// A recording compared with the simulator.
+pub struct Comparison {
+    /// The recording's indices over the move.
+    pub recorded: Summary,
+    /// The simulation's.
+    pub simulated: Summary,
+    /// The two traces from the move's start, aligned.
+    pub traces: (Vec<Sample>, Vec<Sample>),
+    /// The alignment's residual: mean |θ_d,recorded − θ_d,simulated| [rad].
+    pub reference_gap: f64,
+}
+
+/// Reads `csv` and its `.toml`, simulates the same move and aligns the two.
+pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
+    let trace = flexarm_sim::output::read_csv(csv).map_err(ConsoleError::Usage)?;
+    let toml_path = csv.with_extension("toml");
+    let shown = toml_path.display();
+    let text = std::fs::read_to_string(&toml_path).map_err(|e| {
+        ConsoleError::Usage(format!("{shown}: {e} (record writes it beside the CSV)"))
+    })?;
+    let info: Info = toml::from_str(&text).map_err(|e| {
+        let line = e.span().map_or(1, |s| {
+            text[..s.start.min(text.len())].lines().count().max(1)
+        });
+        ConsoleError::Usage(format!("{shown}:{line}: {}", e.message()))
+    })?;
+    let (Some(mv), Some(_)) = (info.mv, info.start_s) else {
+        return Err(ConsoleError::Usage(format!(
+            "{shown}: the recording started no move; record one with a move to compare (flexarm record … trapezoid …)"
+        )));
+    };
+    let valid = info.motor_hz > 0 && info.piezo_hz >= info.motor_hz && info.k_c.is_finite();
+    if !valid {
+        return Err(ConsoleError::Usage(format!(
+            "{shown}: motor_hz, piezo_hz or k_c out of range"
+        )));
+    }
+    let request = match mv {
+        Move::Trapezoid {
+            target,
+            move_time,
+            ramp_time,
+        } => MoveRequest::Trapezoid {
+            target: Vector2::new(target[0], target[1]),
+            move_time,
+            ramp_time,
+        },
+        Move::Circle {
+            centre,
+            radius,
+            period,
+            ramp_time,
+            clockwise,
+        } => MoveRequest::Circle {
+            centre: Vector2::new(centre[0], centre[1]),
+            radius,
+            period,
+            ramp_time,
+            clockwise,
+        },
+        Move::Waypoints { .. } => {
+            return Err(ConsoleError::Usage(
+                "compare simulates trapezoids and circles; a waypoint path is not supported yet"
+                    .into(),
+            ));
+        }
+    };
+    // The drive's own plan of the move, from the pose recorded at its start.
+    let mut ctrl = Controller::<f32>::paper(
+        MotorLaw::Tracking,
+        JointTrajectory::Hold(Vector2::new(info.from[0], info.from[1])),
+        1.0 / info.piezo_hz as f32,
+        1.0 / info.motor_hz as f32,
+        gain(&GAIN_1KHZ),
+    );
+    let drive = Drive::new(&mut ctrl, info.motor_hz, Ticks(0), MoveLimits::default());
+    let from = Vector2::new(info.from[0], info.from[1]);
+    let plan = drive.plan(&ctrl.motor, from, &request).map_err(|why| {
+        ConsoleError::Usage(format!("{shown}: the drive refuses the move: {why:?}"))
+    })?;
+    let traj = plan.trajectory();
+    // The move's start: the last sample before the reference leaves the held pose (the
+    // request's round trip makes the console's own mark late by a few frames under QEMU's
+    // instruction clock); the alignment below refines it to a frame.
+    let held = trace[0].q_d;
+    let start_s = trace
+        .windows(2)
+        .find(|w| (w[1].q_d - held).abs().max() > 1e-6)
+        .map_or(0.0, |w| w[0].t);
+    let recorded: Vec<Sample> = trace
+        .into_iter()
+        .filter(|s| s.t >= start_s - 1e-9)
+        .map(|mut s| {
+            s.t -= start_s;
+            s
+        })
+        .collect();
+    let duration = recorded.last().map_or(0.0, |s| s.t);
+    if duration < f64::from(plan.duration) * 0.5 {
+        return Err(ConsoleError::Usage(format!(
+            "{}: {duration:.2} s of the move recorded, less than half of its {:.2} s",
+            csv.display(),
+            plan.duration
+        )));
+    }
+    let cfg = SimConfig {
+        piezo: Some(flexarm_core::control::piezo::PiezoGains {
+            k_c: info.k_c,
+            ..Default::default()
+        }),
+        state: StateSource::Observer,
+        sensors: Sensors {
+            encoder_counts: Some(16384.0),
+            adc_bits: Some(12),
+            ..Sensors::default()
+        },
+        rates: Rates {
+            plant_dt: 1.0 / f64::from(info.piezo_hz),
+            motor_hz: f64::from(info.motor_hz),
+            piezo_hz: f64::from(info.piezo_hz),
+        },
+        duration: duration + 1.0 / f64::from(info.motor_hz),
+        tail_window: 1.0,
+        ..SimConfig::default()
+    };
+    let (_, simulated) = simulate(&cfg, &traj, true)
+        .map_err(|e| ConsoleError::Usage(format!("the simulation: {e}")))?;
+    // Align on the reference: the move's start is known to a frame.
+    let dt = f64::from(info.decimation) / f64::from(info.motor_hz);
+    let gap = |shift: f64| {
+        let sum: f64 = recorded
+            .iter()
+            .map(|s| {
+                let r = traj.sample((s.t + shift) as f32).q;
+                (s.q_d.x - f64::from(r.x)).abs() + (s.q_d.y - f64::from(r.y)).abs()
+            })
+            .sum();
+        sum / (2 * recorded.len()) as f64
+    };
+    let (shift, reference_gap) = (-10..=10)
+        .map(|k| {
+            let shift = f64::from(k) * dt;
+            (shift, gap(shift))
+        })
+        .fold((0.0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+    let recorded: Vec<Sample> = recorded
+        .into_iter()
+        .map(|mut s| {
+            s.t += shift;
+            s
+        })
+        .filter(|s| s.t >= 0.0)
+        .collect();
+    let window = tail_window(&recorded);
+    Ok(Comparison {
+        recorded: summarize(&recorded, window),
+        simulated: summarize(&simulated, window),
+        traces: (recorded, simulated),
+        reference_gap,
+    })
+}
+
+/// The comparison's table: index, recording, simulation, ratio.
+pub fn table(c: &Comparison) -> String {
+    let (r, s) = (&c.recorded, &c.simulated);
+    let rows = [
+        ("Eq. 37 ‖θ̃‖ [rad]", r.l2_error, s.l2_error),
+        ("Eq. 37 ‖δ‖ [√kg·m]", r.l2_delta, s.l2_delta),
+        ("Eq. 37 ‖tip‖ [m]", r.l2_tip, s.l2_tip),
+        (
+            "Eq. 38 mean |θ̃1| [rad]",
+            r.tail_error_abs[0],
+            s.tail_error_abs[0],
+        ),
+        (
+            "Eq. 38 mean |θ̃2| [rad]",
+            r.tail_error_abs[1],
+            s.tail_error_abs[1],
+        ),
+        (
+            "Eq. 38 mean |δ1| [√kg·m]",
+            r.tail_delta_abs[0],
+            s.tail_delta_abs[0],
+        ),
+        ("max |θ̃| [rad]", r.max_error, s.max_error),
+        ("max |tip| [m]", r.max_tip, s.max_tip),
+        ("max |V_a| [V]", r.max_v_a, s.max_v_a),
+    ];
+    let mut out = format!(
+        "{:26} {:>11} {:>11} {:>7}\n",
+        "index", "recording", "simulation", "ratio"
+    );
+    for (name, a, b) in rows {
+        let ratio = if b > 0.0 { a / b } else { f64::NAN };
+        out += &format!("{name:26} {a:>11.3e} {b:>11.3e} {ratio:>7.2}\n");
+    }
+    out
+}
+
+/// Writes `compare.svg` (the two traces on the same axes) into `out`.
+pub fn save_comparison(c: &Comparison, out: &Path, force: bool) -> Result<PathBuf, ConsoleError> {
+    let dir = OutDir::open(out, "compare", force).map_err(ConsoleError::Io)?;
+    flexarm_sim::output::write_comparison(
+        &dir.staging().join("compare.svg"),
+        "The firmware's recording against the simulator's run of the same move",
+        ("recording", &c.traces.0),
+        ("simulation", &c.traces.1),
+    )
+    .map_err(|e| ConsoleError::Io(format!("the figure: {e}")))?;
+    dir.commit().map_err(ConsoleError::Io)?;
+    Ok(out.join("compare.svg"))
+}
