@@ -395,23 +395,24 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
         ConsoleError::Usage(format!("{shown}: the drive refuses the move: {why:?}"))
     })?;
     let traj = plan.trajectory();
-    // The move's start: the last sample before the reference leaves the held pose (the
-    // request's round trip makes the console's own mark late by a few frames under QEMU's
-    // instruction clock); the alignment below refines it to a frame.
+    // The move's start: where the reference has left the held pose by 3 mrad (the console's
+    // own mark, taken before the request's round trip, can be many frames early under QEMU's
+    // instruction clock; and θ_d = θ̂ − (θ̂ − θ_d) carries the observer's correction of the
+    // period, about ±5e-4 rad in the QEMU board's hold). The alignment below moves it back to
+    // the frame the reference fits best, up to 0.3 s earlier.
     let held = trace[0].q_d;
     let start_s = trace
-        .windows(2)
-        .find(|w| (w[1].q_d - held).abs().max() > 1e-6)
-        .map_or(0.0, |w| w[0].t);
+        .iter()
+        .find(|p| (p.q_d - held).abs().max() > 3e-3)
+        .map_or(0.0, |p| p.t);
     let recorded: Vec<Sample> = trace
         .into_iter()
-        .filter(|s| s.t >= start_s - 1e-9)
         .map(|mut s| {
             s.t -= start_s;
             s
         })
         .collect();
-    let duration = recorded.last().map_or(0.0, |s| s.t);
+    let duration = recorded.last().map_or(0.0, |s| s.t) + 0.3;
     if duration < f64::from(plan.duration) * 0.5 {
         return Err(ConsoleError::Usage(format!(
             "{}: {duration:.2} s of the move recorded, less than half of its {:.2} s",
@@ -453,7 +454,8 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
             .sum();
         sum / (2 * recorded.len()) as f64
     };
-    let (shift, reference_gap) = (-10..=10)
+    let earliest = (0.3 / dt).ceil() as i32;
+    let (shift, reference_gap) = (-2..=earliest)
         .map(|k| {
             let shift = f64::from(k) * dt;
             (shift, gap(shift))
@@ -467,6 +469,16 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
         })
         .filter(|s| s.t >= 0.0)
         .collect();
+    if reference_gap > 2e-3 {
+        return Err(ConsoleError::Usage(format!(
+            "{}: the recorded reference does not follow the move its description names (mean gap {reference_gap:.1e} rad after alignment)",
+            csv.display()
+        )));
+    }
+    // The same span for both.
+    let mut simulated = simulated;
+    let end = recorded.last().map_or(0.0, |s| s.t);
+    simulated.retain(|s| s.t <= end + 1e-9);
     let window = tail_window(&recorded);
     Ok(Comparison {
         recorded: summarize(&recorded, window),

@@ -686,8 +686,11 @@ pub fn summarize(trace: &[Sample], tail_window: f64) -> Summary {
     let duration = last.t - first.t + dt;
     let (mut l2_delta, mut l2_error, mut l2_tip) =
         (L2Norm::default(), L2Norm::default(), L2Norm::default());
-    let mut tail_err = TailMean::<f64, 2>::new(duration, tail_window);
-    let mut tail_delta = TailMean::<f64, 2>::new(duration, tail_window);
+    // Half a sample of slack: the sample at the window's start counts, whatever the rounding
+    // of its time (one sample of a decaying δ moves Eq. 38 by 0.5 %).
+    let window = tail_window + dt / 2.0;
+    let mut tail_err = TailMean::<f64, 2>::new(duration, window);
+    let mut tail_delta = TailMean::<f64, 2>::new(duration, window);
     for p in trace {
         let t = p.t - first.t;
         let err = Vector2::new(p.x.q.x, p.x.q.y) - p.q_d;
