@@ -374,7 +374,7 @@ fn a_waypoint_file_is_uploaded_in_chunks_and_run() {
     assert!(o.status.success(), "{err}");
     assert_eq!(
         out,
-        "move waypoints: done\nmove waypoints: ended, holding\n"
+        "move waypoints: started\nmove waypoints: ended, holding\n"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
