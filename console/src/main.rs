@@ -355,6 +355,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             &format!("test-amplifier-fault {state}"),
             Command::TestAmplifierFault(state == "on"),
         )?,
+        // Offline, handled before connecting.
         Action::Compare { .. } => {}
     }
     Ok(())

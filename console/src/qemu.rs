@@ -10,7 +10,7 @@
 //! well under a second of the host's; the console waits for the drive's states, not for times.
 //! (QEMU's real-time mode, `sleep=on`, which `scripts/qemu-serve` uses for watching, lets the
 //! host's load delay the firmware's timer interrupts: recorded there, the paper's trapezoid
-//! tracked 4 to 5 times worse than the simulator, against 0.85 times here.) The firmware's defmt
+//! tracked 4 to 5 times worse than the simulator, against 0.86 times here.) The firmware's defmt
 //! log (binary) goes to `target/qemu-console.defmt`; `defmt-print -e target/qemu-console.elf <
 //! target/qemu-console.defmt` decodes it.
 

@@ -9,7 +9,7 @@
 //!   them with the paper's model; the modal rates, not streamed, are `NaN`.
 //! - `recording_firmware.svg`: the simulator's figure of a run, of the recording.
 //! - `recording_firmware.toml`: what `compare` needs: the firmware, its loop rates, `k_c`, the
-//!   move and when it started, the frames lost.
+//!   move and the pose it started from, the frames lost.
 //!
 //! `compare` plans the recorded move with the core's drive (the firmware's code), simulates it
 //! at the firmware's rates with its observer and sensors (`flexarm_sim::sim`), aligns the two on
@@ -60,9 +60,7 @@ pub struct Info {
     pub frames: usize,
     /// Frames lost on the way (gaps in the sequence numbers).
     pub lost: u64,
-    /// The move's start in the recording's time [s], if the recording started one.
-    pub start_s: Option<f64>,
-    /// The pose held when the move started (the estimate) [rad].
+    /// The pose held when the move started (the drive's reference) [rad].
     pub from: [f32; 2],
     /// The move.
     #[serde(rename = "move")]
@@ -137,17 +135,14 @@ pub fn record(
         frames.extend(c.take_telemetry());
     }
     let tick0 = frames[0].tick;
-    let mut start_s = None;
-    if mv.is_some() {
-        frames.extend(c.take_telemetry());
-        let last = frames.last().map_or(tick0, |f| f.tick);
-        start(c)?;
-        start_s = Some((last + 1 - tick0) as f64 / motor_hz);
-    }
+    // The pose held, where the drive plans the move from: the reference θ̂ − (θ̂ − θ_d).
     let from = frames
         .last()
-        .and_then(|f| f.values.get(2..4))
-        .map_or([0.0; 2], |v| [v[0], v[1]]);
+        .and_then(|f| f.values.get(0..4))
+        .map_or([0.0; 2], |v| [v[2] - v[0], v[3] - v[1]]);
+    if mv.is_some() {
+        start(c)?;
+    }
     let end_tick = tick0 + (seconds * motor_hz).round() as u64;
     let bar = progress(seconds);
     // Real time plus a margin: a board whose stream stops does not hang the recording.
@@ -196,7 +191,6 @@ pub fn record(
         k_c,
         frames: trace.len(),
         lost: lost + u64::from(dropped),
-        start_s,
         from,
         mv,
     };
@@ -340,7 +334,7 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
         });
         ConsoleError::Usage(format!("{shown}:{line}: {}", e.message()))
     })?;
-    let (Some(mv), Some(_)) = (info.mv, info.start_s) else {
+    let Some(mv) = info.mv else {
         return Err(ConsoleError::Usage(format!(
             "{shown}: the recording started no move; record one with a move to compare (flexarm record … trapezoid …)"
         )));
@@ -395,16 +389,15 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
         ConsoleError::Usage(format!("{shown}: the drive refuses the move: {why:?}"))
     })?;
     let traj = plan.trajectory();
-    // The move's start: where the reference has left the held pose by 3 mrad (the console's
-    // own mark, taken before the request's round trip, can be many frames early under QEMU's
-    // instruction clock; and θ_d = θ̂ − (θ̂ − θ_d) carries the observer's correction of the
-    // period, about ±5e-4 rad in the QEMU board's hold). The alignment below moves it back to
-    // the frame the reference fits best, up to 0.3 s earlier.
+    // The move's start: the last frame before the recorded reference leaves the held pose (the
+    // console's own mark, taken before the request's round trip, can be many frames early under
+    // QEMU's instruction clock). θ_d = θ̂ − (θ̂ − θ_d) is the step's reference to the float's
+    // rounding (`Controller::step_estimate`); the alignment below settles the frame.
     let held = trace[0].q_d;
     let start_s = trace
-        .iter()
-        .find(|p| (p.q_d - held).abs().max() > 3e-3)
-        .map_or(0.0, |p| p.t);
+        .windows(2)
+        .find(|w| (w[1].q_d - held).abs().max() > 1e-6)
+        .map_or(0.0, |w| w[0].t);
     let recorded: Vec<Sample> = trace
         .into_iter()
         .map(|mut s| {
@@ -412,7 +405,8 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
             s
         })
         .collect();
-    let duration = recorded.last().map_or(0.0, |s| s.t) + 0.3;
+    let dt = f64::from(info.decimation) / f64::from(info.motor_hz);
+    let duration = recorded.last().map_or(0.0, |s| s.t) + 2.0 * dt;
     if duration < f64::from(plan.duration) * 0.5 {
         return Err(ConsoleError::Usage(format!(
             "{}: {duration:.2} s of the move recorded, less than half of its {:.2} s",
@@ -442,8 +436,7 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
     };
     let (_, simulated) = simulate(&cfg, &traj, true)
         .map_err(|e| ConsoleError::Usage(format!("the simulation: {e}")))?;
-    // Align on the reference: the move's start is known to a frame.
-    let dt = f64::from(info.decimation) / f64::from(info.motor_hz);
+    // Align on the reference, within two frames.
     let gap = |shift: f64| {
         let sum: f64 = recorded
             .iter()
@@ -454,8 +447,7 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
             .sum();
         sum / (2 * recorded.len()) as f64
     };
-    let earliest = (0.3 / dt).ceil() as i32;
-    let (shift, reference_gap) = (-2..=earliest)
+    let (shift, reference_gap) = (-2..=2)
         .map(|k| {
             let shift = f64::from(k) * dt;
             (shift, gap(shift))
@@ -469,7 +461,7 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
         })
         .filter(|s| s.t >= 0.0)
         .collect();
-    if reference_gap > 2e-3 {
+    if reference_gap > 1e-4 {
         return Err(ConsoleError::Usage(format!(
             "{}: the recorded reference does not follow the move its description names (mean gap {reference_gap:.1e} rad after alignment)",
             csv.display()

@@ -176,9 +176,19 @@ impl<T: Real> Controller<T> {
         )
     }
 
-    /// The observer's estimate `(q, q̇)` after the last motor step.
+    /// The observer's estimate `(q, q̇)` after the last motor step: its prediction for the next
+    /// period.
     pub fn estimate(&self) -> (Vector4<T>, Vector4<T>) {
         self.observer.state()
+    }
+
+    /// The coordinates `q̂` the last motor step ran on (corrected by that step's measurement):
+    /// the prediction `q̂ + q̇̂' T` taken back by one period, exactly (the observer's step moves
+    /// `q` by its new rate). What the law's error `θ̂ − θ_d` refers to, and what telemetry and
+    /// the motion checks report; [`Self::estimate`] is one period ahead of it.
+    pub fn step_estimate(&self) -> Vector4<T> {
+        let (q, qd) = self.observer.state();
+        q - qd * self.motor_period
     }
 
     /// The latched fault, if any.

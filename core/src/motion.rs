@@ -179,6 +179,11 @@ impl<T: Real> MotionMonitor<T> {
         }
     }
 
+    /// The last sample checked.
+    pub fn last(&self) -> Option<&MotionSample<T>> {
+        self.previous.as_ref()
+    }
+
     /// The trend checks' current streaks, `(runaway, frozen)` per joint [motor periods]: how
     /// many periods in a row each has counted (it trips at its window).
     pub fn streaks(&self) -> ([u32; 2], [u32; 2]) {

@@ -423,6 +423,24 @@ fn the_thermal_model_is_its_closed_form() {
     }
 }
 
+/// The drive checks the measured angles against the reference of the step itself, not the
+/// next period's (the observer's estimate after the step is its prediction, `θ̇ T` ahead:
+/// 1e-3 rad at 1 rad/s and 1 kHz, which a check would take for tracking error).
+#[test]
+fn the_checks_see_the_steps_own_reference() {
+    let mut b = moving(Injection::None, 0.0);
+    let mut worst: f32 = 0.0;
+    for _ in 0..1500 {
+        let t = b.drive.time(b.now);
+        b.period();
+        let want = b.ctrl.trajectory.sample(t).q;
+        let seen = b.drive.monitor().last().unwrap().theta_d;
+        worst = worst.max((seen - want).abs().max());
+    }
+    println!("checked reference against the step's: {worst:.1e} rad");
+    assert!(worst < 1e-5, "{worst}");
+}
+
 /// The trend checks' windows at the QEMU board's 100 Hz, on samples fed to the monitor: one
 /// period of a joint speeding up against its torque does not trip (at one period's window the
 /// link session's circle tripped on the firmware), two do; a reading that stands still under

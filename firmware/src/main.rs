@@ -515,7 +515,7 @@ mod app {
             (
                 d.step(c, tick, Some(&Measurement { theta, v_f })),
                 c.fault(),
-                c.estimate().0,
+                c.step_estimate(),
             )
         });
         let cmd = report.command;

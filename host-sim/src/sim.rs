@@ -683,23 +683,47 @@ pub fn summarize(trace: &[Sample], tail_window: f64) -> Summary {
     } else {
         0.0
     };
-    let duration = last.t - first.t + dt;
-    let (mut l2_delta, mut l2_error, mut l2_tip) =
-        (L2Norm::default(), L2Norm::default(), L2Norm::default());
     // Half a sample of slack: the sample at the window's start counts, whatever the rounding
     // of its time (one sample of a decaying δ moves Eq. 38 by 0.5 %).
-    let window = tail_window + dt / 2.0;
-    let mut tail_err = TailMean::<f64, 2>::new(duration, window);
-    let mut tail_delta = TailMean::<f64, 2>::new(duration, window);
+    let mut indices = Indices::new(last.t - first.t + dt, tail_window + dt / 2.0);
     for p in trace {
-        let t = p.t - first.t;
+        indices.add(&mut sum, p, p.t - first.t, dt);
+    }
+    indices.finish(&mut sum);
+    sum
+}
+
+/// The running indices of a trace (Eqs. 37 and 38, the peaks): what [`simulate`] and
+/// [`summarize`] both accumulate.
+struct Indices {
+    l2_delta: L2Norm<f64>,
+    l2_error: L2Norm<f64>,
+    l2_tip: L2Norm<f64>,
+    tail_err: TailMean<f64, 2>,
+    tail_delta: TailMean<f64, 2>,
+}
+
+impl Indices {
+    /// For a trace of `duration` [s], Eq. 38 over its last `tail_window` [s].
+    fn new(duration: f64, tail_window: f64) -> Self {
+        Self {
+            l2_delta: L2Norm::default(),
+            l2_error: L2Norm::default(),
+            l2_tip: L2Norm::default(),
+            tail_err: TailMean::new(duration, tail_window),
+            tail_delta: TailMean::new(duration, tail_window),
+        }
+    }
+
+    /// The sample `p` at `t` [s], held for `dt` [s]; the peaks go straight into `sum`.
+    fn add(&mut self, sum: &mut Summary, p: &Sample, t: f64, dt: f64) {
         let err = Vector2::new(p.x.q.x, p.x.q.y) - p.q_d;
         let delta = Vector2::new(p.x.q.z, p.x.q.w);
-        l2_delta.add(&delta, dt);
-        l2_error.add(&err, dt);
-        l2_tip.add(&nalgebra::Vector1::new(p.tip), dt);
-        tail_err.add(t, &err, dt);
-        tail_delta.add(t, &delta, dt);
+        self.l2_delta.add(&delta, dt);
+        self.l2_error.add(&err, dt);
+        self.l2_tip.add(&nalgebra::Vector1::new(p.tip), dt);
+        self.tail_err.add(t, &err, dt);
+        self.tail_delta.add(t, &delta, dt);
         sum.max_error = sum.max_error.max(err.abs().max());
         for i in 0..2 {
             sum.max_tau[i] = sum.max_tau[i].max(p.tau[i].abs());
@@ -707,18 +731,21 @@ pub fn summarize(trace: &[Sample], tail_window: f64) -> Summary {
         sum.max_v_a = sum.max_v_a.max(p.v_a.abs());
         sum.max_tip = sum.max_tip.max(p.tip.abs());
     }
-    sum.l2_delta = l2_delta.value();
-    sum.l2_error = l2_error.value();
-    sum.l2_tip = l2_tip.value();
-    let (te, tea, tda) = (
-        tail_err.signed(),
-        tail_err.absolute(),
-        tail_delta.absolute(),
-    );
-    sum.tail_error = [te.x, te.y];
-    sum.tail_error_abs = [tea.x, tea.y];
-    sum.tail_delta_abs = [tda.x, tda.y];
-    sum
+
+    /// Writes the integral indices into `sum`.
+    fn finish(&self, sum: &mut Summary) {
+        sum.l2_delta = self.l2_delta.value();
+        sum.l2_error = self.l2_error.value();
+        sum.l2_tip = self.l2_tip.value();
+        let (te, tea, tda) = (
+            self.tail_err.signed(),
+            self.tail_err.absolute(),
+            self.tail_delta.absolute(),
+        );
+        sum.tail_error = [te.x, te.y];
+        sum.tail_error_abs = [tea.x, tea.y];
+        sum.tail_delta_abs = [tda.x, tda.y];
+    }
 }
 
 /// Runs the closed loop from rest at `θ_d(0)`; `record` keeps one [`Sample`] per motor period.
@@ -739,10 +766,7 @@ pub fn simulate(
     let steps = (cfg.duration / dt).round() as u64;
 
     let mut sum = Summary::default();
-    let (mut l2_delta, mut l2_error, mut l2_tip) =
-        (L2Norm::default(), L2Norm::default(), L2Norm::default());
-    let mut tail_err = TailMean::<f64, 2>::new(cfg.duration, cfg.tail_window);
-    let mut tail_delta = TailMean::<f64, 2>::new(cfg.duration, cfg.tail_window);
+    let mut indices = Indices::new(cfg.duration, cfg.tail_window);
     let mut trace = Vec::new();
     let (mut tau, mut v_a, mut v_f) = (Vector2::<f64>::zeros(), 0.0_f64, 0.0_f64);
     // Measurements held back one period when `sensors.delay`.
@@ -820,47 +844,25 @@ pub fn simulate(
                 }
             };
             tau = new_tau;
-            let err = Vector2::new(x.q.x, x.q.y) - target.q.cast::<f64>();
-            let delta = Vector2::new(x.q.z, x.q.w);
-            let tip = plant.tip();
-            l2_delta.add(&delta, motor_dt);
-            l2_error.add(&err, motor_dt);
-            l2_tip.add(&nalgebra::Vector1::new(tip), motor_dt);
-            tail_err.add(t, &err, motor_dt);
-            tail_delta.add(t, &delta, motor_dt);
-            sum.max_error = sum.max_error.max(err.abs().max());
-            for i in 0..2 {
-                sum.max_tau[i] = sum.max_tau[i].max(tau[i].abs());
-            }
-            sum.max_v_a = sum.max_v_a.max(v_a.abs());
-            sum.max_tip = sum.max_tip.max(tip.abs());
+            let sample = Sample {
+                t,
+                x,
+                q_d: target.q.cast::<f64>(),
+                delta_seen,
+                tau,
+                v_a,
+                v_f,
+                tip: plant.tip(),
+            };
+            indices.add(&mut sum, &sample, t, motor_dt);
             if record {
-                trace.push(Sample {
-                    t,
-                    x,
-                    q_d: target.q.cast::<f64>(),
-                    delta_seen,
-                    tau,
-                    v_a,
-                    v_f,
-                    tip,
-                });
+                trace.push(sample);
             }
         }
         plant
             .step(&tau, v_a, dt)
             .map_err(|_| SimError::Plant { t })?;
     }
-    sum.l2_delta = l2_delta.value();
-    sum.l2_error = l2_error.value();
-    sum.l2_tip = l2_tip.value();
-    let (te, tea, tda) = (
-        tail_err.signed(),
-        tail_err.absolute(),
-        tail_delta.absolute(),
-    );
-    sum.tail_error = [te.x, te.y];
-    sum.tail_error_abs = [tea.x, tea.y];
-    sum.tail_delta_abs = [tda.x, tda.y];
+    indices.finish(&mut sum);
     Ok((sum, trace))
 }

@@ -151,9 +151,9 @@ pub struct Channels(pub u16);
 impl Channels {
     /// Joint tracking errors θ − θ_d [rad] (2 values).
     pub const ERROR: u16 = 1 << 0;
-    /// Estimated joint angles θ̂ [rad] (2).
+    /// Estimated joint angles θ̂ [rad], the estimate the motor step ran on (2).
     pub const THETA: u16 = 1 << 1;
-    /// Estimated modal coordinates δ̂ [√kg·m] (2).
+    /// Estimated modal coordinates δ̂ [√kg·m], as θ̂ (2).
     pub const DELTA: u16 = 1 << 2;
     /// Motor torque commands τ [N·m] (2).
     pub const TAU: u16 = 1 << 3;
