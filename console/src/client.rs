@@ -91,6 +91,10 @@ pub const HANDSHAKE: Duration = Duration::from_secs(3);
 /// How long a request waits for its reply.
 pub const REPLY: Duration = Duration::from_secs(2);
 
+/// How long one read of the line waits for bytes: the longest a caller's loop (the live view's
+/// keys) waits on a silent line.
+const POLL: Duration = Duration::from_millis(10);
+
 /// A session with the firmware.
 pub struct Client {
     link: Box<dyn Link>,
@@ -100,53 +104,71 @@ pub struct Client {
     pub hello: Hello,
     /// Telemetry frames received since the last [`Client::take_telemetry`].
     telemetry: Vec<Telemetry>,
+    /// Bytes read from the line and not yet decoded (`buffer[at..filled]`).
+    buffer: [u8; 512],
+    at: usize,
+    filled: usize,
+}
+
+/// What one read of the line gave (a frame is short-lived: not boxed).
+#[allow(clippy::large_enum_variant)]
+enum Read {
+    Frame(DeviceMsg),
+    /// A byte that did not end a valid frame.
+    Byte,
+    /// Nothing within [`POLL`].
+    Quiet,
 }
 
 impl Client {
     /// Opens a session on `link`: `Hello` every 100 ms until the firmware answers, for at most
     /// `timeout` (bytes sent before a board has booted are lost; QEMU waits for the connection).
     pub fn connect(mut link: Box<dyn Link>, timeout: Duration) -> Result<Self, ConsoleError> {
-        link.set_timeout(Duration::from_millis(100))?;
-        let mut decoder = Decoder::new();
-        let (mut id, mut received) = (0u16, 0usize);
+        link.set_timeout(POLL)?;
+        let mut c = Self {
+            link,
+            decoder: Decoder::new(),
+            next_id: 0,
+            hello: Hello {
+                version: 0,
+                board: flexarm_link::msg::Board::Qemu,
+                build: heapless::String::new(),
+                params_hash: 0,
+                motor_hz: 0,
+                piezo_hz: 0,
+            },
+            telemetry: Vec::new(),
+            buffer: [0; 512],
+            at: 0,
+            filled: 0,
+        };
+        let mut received = 0usize;
         let start = Instant::now();
         while start.elapsed() < timeout {
-            id = id.wrapping_add(1);
+            c.next_id = c.next_id.wrapping_add(1);
             send(
-                &mut *link,
+                &mut *c.link,
                 &Request {
-                    id,
+                    id: c.next_id,
                     command: Command::Hello { version: VERSION },
                 },
             )?;
             let sent = Instant::now();
             while sent.elapsed() < Duration::from_millis(100) {
-                let mut byte = [0u8; 1];
-                match link.read(&mut byte) {
-                    Ok(0) => return Err(ConsoleError::Io("the firmware closed the line".into())),
-                    Ok(_) => received += 1,
-                    Err(e) if is_timeout(&e) => break,
-                    Err(e) => return Err(ConsoleError::Io(format!("receive: {e}"))),
-                }
-                match decoder.push::<DeviceMsg>(byte[0]) {
-                    Some(Ok(DeviceMsg::Reply {
+                match c.read()? {
+                    Read::Frame(DeviceMsg::Reply {
                         reply: Reply::Hello(hello),
                         ..
-                    })) => {
-                        link.set_timeout(REPLY)?;
-                        return Ok(Self {
-                            link,
-                            decoder,
-                            next_id: id,
-                            hello,
-                            telemetry: Vec::new(),
-                        });
+                    }) => {
+                        c.hello = hello;
+                        return Ok(c);
                     }
-                    Some(Ok(DeviceMsg::Reply {
+                    Read::Frame(DeviceMsg::Reply {
                         reply: Reply::Refused(Refusal::Version),
                         ..
-                    })) => return Err(ConsoleError::Version),
-                    _ => {}
+                    }) => return Err(ConsoleError::Version),
+                    Read::Frame(_) | Read::Byte => received += 1,
+                    Read::Quiet => {}
                 }
             }
         }
@@ -154,6 +176,24 @@ impl Client {
             ConsoleError::NotOurFirmware { bytes: received }
         } else {
             ConsoleError::Silent
+        })
+    }
+
+    /// One byte from the line through the decoder, reading the line when the buffer is empty.
+    fn read(&mut self) -> Result<Read, ConsoleError> {
+        if self.at == self.filled {
+            match self.link.read(&mut self.buffer) {
+                Ok(0) => return Err(ConsoleError::Io("the firmware closed the line".into())),
+                Ok(n) => (self.at, self.filled) = (0, n),
+                Err(e) if is_timeout(&e) => return Ok(Read::Quiet),
+                Err(e) => return Err(ConsoleError::Io(format!("receive: {e}"))),
+            }
+        }
+        let byte = self.buffer[self.at];
+        self.at += 1;
+        Ok(match self.decoder.push::<DeviceMsg>(byte) {
+            Some(Ok(m)) => Read::Frame(m),
+            _ => Read::Byte,
         })
     }
 
@@ -167,25 +207,31 @@ impl Client {
         let id = self.next_id;
         send(&mut *self.link, &Request { id, command })?;
         let start = Instant::now();
-        loop {
-            if start.elapsed() > REPLY {
-                return Err(ConsoleError::Timeout(what));
-            }
-            let mut byte = [0u8; 1];
-            match self.link.read(&mut byte) {
-                Ok(0) => return Err(ConsoleError::Io("the firmware closed the line".into())),
-                Ok(_) => {}
-                Err(e) if is_timeout(&e) => return Err(ConsoleError::Timeout(what)),
-                Err(e) => return Err(ConsoleError::Io(format!("receive: {e}"))),
-            }
-            match self.decoder.push::<DeviceMsg>(byte[0]) {
-                Some(Ok(DeviceMsg::Reply { id: got, reply })) if got == id => return Ok(reply),
-                Some(Ok(DeviceMsg::Telemetry(t))) => self.telemetry.push(t),
+        while start.elapsed() < REPLY {
+            match self.read()? {
+                Read::Frame(DeviceMsg::Reply { id: got, reply }) if got == id => return Ok(reply),
+                Read::Frame(DeviceMsg::Telemetry(t)) => self.telemetry.push(t),
                 // A late answer to a handshake repeat or to a request that timed out, or a frame
                 // damaged on the line: skipped.
                 _ => {}
             }
         }
+        Err(ConsoleError::Timeout(what))
+    }
+
+    /// Reads what the line brings for at most `budget` (less when it falls quiet), keeping the
+    /// telemetry: a flood of frames cannot hold the caller longer than `budget` plus one read.
+    /// Returns the frames kept so far.
+    pub fn pump(&mut self, budget: Duration) -> Result<usize, ConsoleError> {
+        let start = Instant::now();
+        while start.elapsed() < budget {
+            match self.read()? {
+                Read::Frame(DeviceMsg::Telemetry(t)) => self.telemetry.push(t),
+                Read::Quiet => break,
+                _ => {}
+            }
+        }
+        Ok(self.telemetry.len())
     }
 
     /// [`Self::ask`], a refusal turned into an error naming `what` was asked.

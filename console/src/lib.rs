@@ -13,6 +13,7 @@
 
 pub mod client;
 pub mod interrupt;
+pub mod live;
 pub mod params;
 pub mod qemu;
 pub mod record;
@@ -20,3 +21,9 @@ pub mod transport;
 pub mod waypoints;
 
 pub use client::{Client, ConsoleError};
+
+/// A fault's name from its stable number (docs/safety.md).
+pub fn fault_name(code: u8) -> &'static str {
+    flexarm_core::Fault::from_code(code)
+        .map_or("unknown to this console", flexarm_core::Fault::as_str)
+}

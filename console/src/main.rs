@@ -6,6 +6,7 @@
 //! flexarm --port /dev/ttyUSB0 arm
 //! flexarm --qemu --arm record --seconds 4 out/ trapezoid --to 0.8,-0.5 --time 2 --ramp 0.5
 //! flexarm compare out/recording_firmware.csv
+//! flexarm --qemu --arm live circle --centre 0.5,0.5 --radius 0.1 --period 4 --ramp 1
 //! ```
 
 use std::path::PathBuf;
@@ -15,7 +16,7 @@ use std::time::Duration;
 use clap::{Parser, Subcommand};
 use flexarm_console::client::{Client, ConsoleError, HANDSHAKE};
 use flexarm_console::qemu::Qemu;
-use flexarm_console::{interrupt, params, record, transport, waypoints};
+use flexarm_console::{fault_name, interrupt, live, params, record, transport, waypoints};
 use flexarm_link::msg::{Mode, Move, Status, WAYPOINTS_PER_CHUNK, Waypoint};
 use flexarm_link::{Command, Reply};
 
@@ -91,6 +92,19 @@ enum Action {
         /// The output folder.
         out: PathBuf,
         /// A move to start once the recording runs.
+        #[command(subcommand)]
+        then: Option<MoveKind>,
+    },
+    /// A full-screen live view: tracking errors, vibration, piezo, torques, loads and faults;
+    /// keys s (stop), e or space (emergency stop), q (quit). Optionally starts a move.
+    Live {
+        /// Motor periods per frame (1: every period; raised until the link accepts the rate).
+        #[arg(long, default_value_t = 1)]
+        decimation: u16,
+        /// Seconds the plots show.
+        #[arg(long, default_value_t = 10.0)]
+        window: f64,
+        /// A move to start once the view runs.
         #[command(subcommand)]
         then: Option<MoveKind>,
     },
@@ -215,6 +229,10 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         | Action::Record {
             then: Some(MoveKind::Waypoints { file }),
             ..
+        }
+        | Action::Live {
+            then: Some(MoveKind::Waypoints { file }),
+            ..
         } => Some(waypoints::read(file)?),
         _ => None,
     };
@@ -224,7 +242,10 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
     let link = match (&cli.port, &cli.tcp, cli.qemu) {
         (Some(p), None, false) => transport::serial(p, cli.baud)?,
         (None, Some(a), false) => transport::tcp(a)?,
-        (None, None, true) => qemu.insert(Qemu::start()?).connect()?,
+        // The live view follows the host's clock; every other command the firmware's own.
+        (None, None, true) => qemu
+            .insert(Qemu::start(matches!(cli.command, Action::Live { .. }))?)
+            .connect()?,
         _ => {
             return Err(ConsoleError::Usage(
                 "say where the firmware is: --port PATH (a board), --tcp HOST:PORT or --qemu"
@@ -292,6 +313,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         Action::Move(m) => {
             let (what, m) = to_move(m, path.as_deref())?;
             start_move(&mut c, what, m, path.as_deref())?;
+            println!("{what}: started");
             // Stay on the line until the move has ended: the requests feed the link watchdog,
             // which would stop a move whose host went away.
             let ended = loop {
@@ -337,7 +359,11 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 decimation,
                 mv.map(|(_, m)| m),
                 &mut |c: &mut Client| match mv {
-                    Some((what, m)) => start_move(c, what, m, path.as_deref()),
+                    Some((what, m)) => {
+                        start_move(c, what, m, path.as_deref())?;
+                        println!("{what}: started");
+                        Ok(())
+                    }
                     None => Ok(()),
                 },
             )?;
@@ -348,6 +374,34 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 names.join(", "),
                 out.display()
             );
+        }
+        Action::Live {
+            decimation,
+            window,
+            then,
+        } => {
+            if !(1.0..=600.0).contains(&window) {
+                return Err(ConsoleError::Usage(format!(
+                    "--window {window}: give 1 to 600 s"
+                )));
+            }
+            let mv = then.map(|m| to_move(m, path.as_deref())).transpose()?;
+            let decimation = subscribe_fastest(&mut c, decimation)?;
+            let mut view = live::View::new(
+                format!("{} on {:?}", c.hello.build, c.hello.board),
+                c.hello.motor_hz,
+                decimation,
+                window,
+            );
+            let shown = live::run(&mut c, &mut view, &mut |c: &mut Client| match mv {
+                Some((what, m)) => {
+                    start_move(c, what, m, path.as_deref()).map(|()| format!("{what}: started"))
+                }
+                None => Ok("ready".into()),
+            });
+            let _ = c.ask(Command::Unsubscribe);
+            shown?;
+            println!("live: {}", view.message);
         }
         Action::Faults { out, force } => faults(&mut c, &out, force)?,
         Action::TestAmplifierFault { state } => done(
@@ -397,7 +451,33 @@ fn to_move(m: MoveKind, path: Option<&[Waypoint]>) -> Result<(&'static str, Move
     })
 }
 
-/// Uploads a path's waypoints in chunks, then starts the move.
+/// Subscribes to every channel at `decimation`, doubled until the link accepts the rate;
+/// returns the decimation accepted.
+fn subscribe_fastest(c: &mut Client, decimation: u16) -> Result<u16, ConsoleError> {
+    let mut d = decimation.max(1);
+    loop {
+        let channels = flexarm_link::msg::Channels(flexarm_link::msg::Channels::ALL);
+        match c.ask(Command::Subscribe {
+            decimation: d,
+            channels,
+        })? {
+            Reply::Done => return Ok(d),
+            Reply::Refused(flexarm_link::msg::Refusal::OutOfRange) if d < 1000 => {
+                d = d.saturating_mul(2)
+            }
+            Reply::Refused(why) => {
+                return Err(ConsoleError::Refused {
+                    what: format!("subscribe (every {d} motor periods)"),
+                    why,
+                });
+            }
+            r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+        }
+    }
+}
+
+/// Uploads a path's waypoints in chunks, then starts the move (the caller says so: the live
+/// view draws its own screen).
 fn start_move(
     c: &mut Client,
     what: &str,
@@ -419,10 +499,7 @@ fn start_move(
         }
     }
     match c.request(what, Command::Move(m))? {
-        Reply::Done => {
-            println!("{what}: started");
-            Ok(())
-        }
+        Reply::Done => Ok(()),
         r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
     }
 }
@@ -527,10 +604,4 @@ fn print_status(s: &Status) {
         "motor periods {}, telemetry dropped {}, watchdog stops {}, received {} bytes ({} lost), stack {} bytes",
         s.ticks, s.telemetry_dropped, s.link_stops, s.rx_bytes, s.rx_lost, s.stack_used
     );
-}
-
-/// A fault's name from its stable number (docs/safety.md).
-fn fault_name(code: u8) -> &'static str {
-    flexarm_core::Fault::from_code(code)
-        .map_or("unknown to this console", flexarm_core::Fault::as_str)
 }

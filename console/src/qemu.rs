@@ -48,8 +48,10 @@ fn found(program: &str) -> bool {
 }
 
 impl Qemu {
-    /// Builds the firmware (cargo's no-op when it is current) and starts it.
-    pub fn start() -> Result<Self, ConsoleError> {
+    /// Builds the firmware (cargo's no-op when it is current) and starts it: on the host's
+    /// clock when `realtime` (the live view: a 2 s move takes 2 s to watch), otherwise on its
+    /// own instruction count (module docs).
+    pub fn start(realtime: bool) -> Result<Self, ConsoleError> {
         if !found("qemu-system-arm") {
             return Err(ConsoleError::Usage(
                 "--qemu needs qemu-system-arm (Debian: apt-get install qemu-system-arm)".into(),
@@ -105,7 +107,12 @@ impl Qemu {
             .arg("-serial")
             .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on"))
             .args(["-semihosting-config", "enable=on,target=native"])
-            .args(["-icount", "shift=0,sleep=off"])
+            .arg("-icount")
+            .arg(if realtime {
+                "shift=0,sleep=on"
+            } else {
+                "shift=0,sleep=off"
+            })
             .arg("-kernel")
             .arg(&elf)
             .stdin(Stdio::null())

@@ -304,7 +304,8 @@ pub fn save_faults(
 }
 
 /// The paper's model in `f64` (the firmware's), for the tip deflection.
-fn paper_model() -> flexarm_core::model::Model<f64> {
+/// The paper's arm, as the firmware's controller models it (f64, for the host's figures).
+pub fn paper_model() -> flexarm_core::model::Model<f64> {
     flexarm_core::model::Model::new(flexarm_core::params::ArmParams::default())
 }
 

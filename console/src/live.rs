@@ -1,0 +1,481 @@
+//! `live`: a full-screen view of the running arm (ratatui), in the terminal the operator already
+//! has open.
+//!
+//! Four plots over the last [`View::window`] seconds, each titled with its latest values:
+//! tracking errors `θ − θ_d` [mrad], the vibration (the estimated modal coordinates `δ̂`
+//! [√kg·m ×10⁻³] and the tip deflection `w(l₂)` [mm] computed from them with the paper's model),
+//! the piezo command `V_a` and film voltage `V_f` [V], the motor torques `τ` [N·m]; a line with
+//! the mode, the latched fault and the link's counters; the two loops' loads with their deadline
+//! misses. Keys, read between every two reads of the line, so they work whatever the firmware
+//! streams: `s` stop (category 1), `e` or space the emergency stop (category 0), `q`, Esc or
+//! Ctrl-C leave (a running move is stopped first, as on Ctrl-C elsewhere).
+//!
+//! The screen is redrawn 10 times a second ([`REDRAW`]); telemetry is read in between in slices
+//! of at most [`SLICE`], so at the highest rate the link carries the view stays as responsive as
+//! at the lowest, and each plot keeps at most [`POINTS`] points however fast frames come.
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+use flexarm_link::msg::{Channels, Mode, Status, Telemetry};
+use flexarm_link::{Command, Reply};
+use ratatui::Frame;
+use ratatui::crossterm::event::{self, Event, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
+use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::style::{Color, Style, Stylize};
+use ratatui::symbols::Marker;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Axis, Block, Chart, Dataset, Gauge, GraphType, Paragraph};
+
+use crate::client::{Client, ConsoleError};
+
+/// Screen redraws: 10 a second, readable and light.
+pub const REDRAW: Duration = Duration::from_millis(100);
+/// The longest the line is read before the keys are looked at again.
+pub const SLICE: Duration = Duration::from_millis(20);
+/// Status requests (mode, fault, loads' misses), which also feed the link watchdog.
+const STATUS_EVERY: Duration = Duration::from_millis(250);
+/// Points per plotted series, at most.
+pub const POINTS: usize = 1500;
+
+/// What a key asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KeyAction {
+    /// A controlled stop of the running move.
+    Stop,
+    /// The safe state now.
+    Estop,
+    /// Leave the view (a running move is stopped first).
+    Quit,
+}
+
+/// The action of a key press (`None`: not one of ours, or a release).
+pub fn key_action(k: &KeyEvent) -> Option<KeyAction> {
+    if k.kind == KeyEventKind::Release {
+        return None;
+    }
+    match k.code {
+        KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => Some(KeyAction::Quit),
+        KeyCode::Char('s' | 'S') => Some(KeyAction::Stop),
+        KeyCode::Char('e' | 'E' | ' ') => Some(KeyAction::Estop),
+        KeyCode::Char('q' | 'Q') | KeyCode::Esc => Some(KeyAction::Quit),
+        _ => None,
+    }
+}
+
+/// The plotted series, in the order of [`View::series`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Series {
+    E1,
+    E2,
+    D1,
+    D2,
+    Tip,
+    Va,
+    Vf,
+    Tau1,
+    Tau2,
+}
+const SERIES: usize = 9;
+
+/// What the view shows: the latest frames, the status, the last message.
+pub struct View {
+    /// Seconds shown by the plots.
+    pub window: f64,
+    motor_hz: f64,
+    /// Frames kept per plotted point (1 until the window would hold more than [`POINTS`]).
+    every: u64,
+    series: [VecDeque<(f64, f64)>; SERIES],
+    /// The latest values of every channel (link order).
+    latest: Option<Vec<f32>>,
+    /// The latest status.
+    status: Option<Status>,
+    /// Frames received and lost (sequence gaps).
+    frames: u64,
+    lost: u64,
+    last_seq: Option<u32>,
+    /// The first frame's tick (time zero of the plots).
+    tick0: Option<u64>,
+    /// Frames per second of the firmware's time.
+    rate: f64,
+    /// The header: firmware and board.
+    title: String,
+    /// The last thing done (a key's effect, an error of the line).
+    pub message: String,
+    model: flexarm_core::model::Model<f64>,
+}
+
+impl View {
+    /// A view of a firmware whose motor loop runs at `motor_hz`, streaming every `decimation`-th
+    /// period, over `window` seconds.
+    pub fn new(title: String, motor_hz: u32, decimation: u16, window: f64) -> Self {
+        let rate = f64::from(motor_hz) / f64::from(decimation.max(1));
+        Self {
+            window,
+            motor_hz: f64::from(motor_hz.max(1)),
+            every: ((rate * window) / POINTS as f64).ceil().max(1.0) as u64,
+            series: Default::default(),
+            latest: None,
+            status: None,
+            frames: 0,
+            lost: 0,
+            last_seq: None,
+            tick0: None,
+            rate,
+            title,
+            message: "ready".into(),
+            model: crate::record::paper_model(),
+        }
+    }
+
+    /// Takes telemetry frames (every channel, [`Channels::ALL`]).
+    pub fn ingest(&mut self, frames: &[Telemetry]) {
+        for f in frames {
+            if f.channels.0 != Channels::ALL || f.values.len() < 12 {
+                continue;
+            }
+            if let Some(s) = self.last_seq {
+                self.lost += u64::from(f.seq.wrapping_sub(s).saturating_sub(1));
+            }
+            self.last_seq = Some(f.seq);
+            self.frames += 1;
+            let tick0 = *self.tick0.get_or_insert(f.tick);
+            let v: Vec<f64> = f.values.iter().map(|&x| f64::from(x)).collect();
+            self.latest = Some(f.values.to_vec());
+            if !self.frames.is_multiple_of(self.every) {
+                continue;
+            }
+            let t = f.tick.saturating_sub(tick0) as f64 / self.motor_hz;
+            let q = flexarm_core::Vector4::new(v[2], v[3], v[4], v[5]);
+            let tip = self.model.tip_deflection(&q);
+            let values = [
+                v[0] * 1e3,
+                v[1] * 1e3,
+                v[4] * 1e3,
+                v[5] * 1e3,
+                tip * 1e3,
+                v[8],
+                v[9],
+                v[6],
+                v[7],
+            ];
+            for (s, y) in self.series.iter_mut().zip(values) {
+                s.push_back((t, y));
+                while s.front().is_some_and(|&(t0, _)| t0 < t - self.window) || s.len() > POINTS {
+                    s.pop_front();
+                }
+            }
+        }
+    }
+
+    /// Takes a status.
+    pub fn status(&mut self, s: Status) {
+        self.status = Some(s);
+    }
+
+    /// The most points any plot holds.
+    pub fn points_held(&self) -> usize {
+        self.series.iter().map(VecDeque::len).max().unwrap_or(0)
+    }
+
+    fn points(&self, s: Series) -> Vec<(f64, f64)> {
+        self.series[s as usize].iter().copied().collect()
+    }
+
+    fn value(&self, i: usize) -> f64 {
+        self.latest
+            .as_ref()
+            .and_then(|v| v.get(i))
+            .map_or(f64::NAN, |&x| f64::from(x))
+    }
+
+    /// The latest tip deflection [mm].
+    fn tip_mm(&self) -> f64 {
+        self.series[Series::Tip as usize]
+            .back()
+            .map_or(f64::NAN, |&(_, y)| y)
+    }
+
+    /// Draws the whole view into `frame`.
+    pub fn render(&self, frame: &mut Frame) {
+        let [head, plots, loads, foot] = Layout::vertical([
+            Constraint::Length(3),
+            Constraint::Min(8),
+            Constraint::Length(3),
+            Constraint::Length(1),
+        ])
+        .areas(frame.area());
+        self.render_head(frame, head);
+        let [top, bottom] =
+            Layout::vertical([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(plots);
+        let [a, b] =
+            Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(top);
+        let [c, d] = Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)])
+            .areas(bottom);
+        let e = [self.value(0) * 1e3, self.value(1) * 1e3];
+        self.plot(
+            frame,
+            a,
+            format!(" tracking error [mrad]  e1 {:+.3}  e2 {:+.3} ", e[0], e[1]),
+            &[
+                (Series::E1, "e1", Color::Cyan),
+                (Series::E2, "e2", Color::Magenta),
+            ],
+        );
+        self.plot(
+            frame,
+            b,
+            format!(
+                " vibration  δ̂1 {:+.3}  δ̂2 {:+.3} [×1e-3]  tip {:+.3} mm ",
+                self.value(4) * 1e3,
+                self.value(5) * 1e3,
+                self.tip_mm()
+            ),
+            &[
+                (Series::D1, "δ̂1", Color::Cyan),
+                (Series::D2, "δ̂2", Color::Magenta),
+                (Series::Tip, "tip", Color::Yellow),
+            ],
+        );
+        self.plot(
+            frame,
+            c,
+            format!(
+                " piezo [V]  V_a {:+.2}  V_f {:+.4} ",
+                self.value(8),
+                self.value(9)
+            ),
+            &[
+                (Series::Va, "V_a", Color::Yellow),
+                (Series::Vf, "V_f", Color::Green),
+            ],
+        );
+        self.plot(
+            frame,
+            d,
+            format!(
+                " torque [N·m]  τ1 {:+.3}  τ2 {:+.3} ",
+                self.value(6),
+                self.value(7)
+            ),
+            &[
+                (Series::Tau1, "τ1", Color::Cyan),
+                (Series::Tau2, "τ2", Color::Magenta),
+            ],
+        );
+        self.render_loads(frame, loads);
+        frame.render_widget(
+            Paragraph::new(Line::from(vec![
+                Span::raw(" keys: "),
+                Span::raw("s").bold(),
+                Span::raw(" stop · "),
+                Span::raw("e").bold(),
+                Span::raw("/"),
+                Span::raw("space").bold(),
+                Span::raw(" emergency stop · "),
+                Span::raw("q").bold(),
+                Span::raw(" quit   │ "),
+                Span::raw(self.message.as_str()),
+            ])),
+            foot,
+        );
+    }
+
+    fn render_head(&self, frame: &mut Frame, area: Rect) {
+        let (mode, colour) = match self.status.map(|s| s.mode) {
+            None => ("…", Color::Gray),
+            Some(Mode::Disarmed) => ("DISARMED", Color::Gray),
+            Some(Mode::Armed) => ("ARMED, holding", Color::Green),
+            Some(Mode::Moving) => ("MOVING", Color::Cyan),
+            Some(Mode::Stopping) => ("STOPPING", Color::Yellow),
+            Some(Mode::Fault) => ("FAULT (safe state)", Color::Red),
+        };
+        let fault = match self.status.and_then(|s| s.fault) {
+            None => "none".to_string(),
+            Some(f) => format!("{f} ({})", crate::fault_name(f)),
+        };
+        let (dropped, stops) = self
+            .status
+            .map_or((0, 0), |s| (s.telemetry_dropped, s.link_stops));
+        let line = Line::from(vec![
+            Span::raw(" mode: "),
+            Span::styled(mode, Style::new().fg(colour).bold()),
+            Span::raw(format!("   fault: {fault}")),
+            Span::raw(format!(
+                "   frames {} ({:.0}/s), lost {}, dropped {}, watchdog stops {}",
+                self.frames, self.rate, self.lost, dropped, stops
+            )),
+        ]);
+        frame.render_widget(
+            Paragraph::new(line)
+                .block(Block::bordered().title(format!(" flexarm live · {} ", self.title))),
+            area,
+        );
+    }
+
+    fn render_loads(&self, frame: &mut Frame, area: Rect) {
+        let [p, m] = Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)])
+            .areas(area);
+        let misses = self
+            .status
+            .map_or([0, 0], |s| [s.loads[0].misses, s.loads[1].misses]);
+        for (i, (name, area)) in [("piezo loop", p), ("motor loop", m)]
+            .into_iter()
+            .enumerate()
+        {
+            let load = self.value(10 + i);
+            let ratio = if load.is_finite() {
+                load.clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let colour = if misses[i] > 0 || ratio > 0.8 {
+                Color::Red
+            } else {
+                Color::Green
+            };
+            frame.render_widget(
+                Gauge::default()
+                    .block(Block::bordered().title(format!(
+                        " {name}: load {:.2} %, {} deadline misses ",
+                        load * 100.0,
+                        misses[i]
+                    )))
+                    .gauge_style(Style::new().fg(colour))
+                    .ratio(ratio),
+                area,
+            );
+        }
+    }
+
+    fn plot(&self, frame: &mut Frame, area: Rect, title: String, lines: &[(Series, &str, Color)]) {
+        let data: Vec<Vec<(f64, f64)>> = lines.iter().map(|(s, _, _)| self.points(*s)).collect();
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &(_, y) in data.iter().flatten() {
+            if y.is_finite() {
+                lo = lo.min(y);
+                hi = hi.max(y);
+            }
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            (lo, hi) = (-1.0, 1.0);
+        }
+        let pad = ((hi - lo) * 0.1).max(1e-6);
+        let (lo, hi) = (lo - pad, hi + pad);
+        let t_end = data
+            .iter()
+            .filter_map(|d| d.last().map(|p| p.0))
+            .fold(self.window, f64::max);
+        let x = [t_end - self.window, t_end];
+        let sets: Vec<Dataset> = data
+            .iter()
+            .zip(lines)
+            .map(|(d, (_, name, colour))| {
+                Dataset::default()
+                    .name(*name)
+                    .marker(Marker::Braille)
+                    .graph_type(GraphType::Line)
+                    .style(Style::new().fg(*colour))
+                    .data(d)
+            })
+            .collect();
+        frame.render_widget(
+            Chart::new(sets)
+                .block(Block::bordered().title(title))
+                .x_axis(
+                    Axis::default()
+                        .bounds(x)
+                        .labels([format!("{:.0} s", x[0]), format!("{:.0} s", x[1])]),
+                )
+                .y_axis(
+                    Axis::default()
+                        .bounds([lo, hi])
+                        .labels([format!("{lo:.3}"), format!("{hi:.3}")]),
+                ),
+            area,
+        );
+    }
+}
+
+/// Runs the view on `c` (subscribed to every channel by the caller) until a key leaves it.
+/// `start` runs once, after the first frame (a move given on the command line); what it returns
+/// (or its error) is shown on the last line. Restores the terminal on every way out.
+pub fn run(
+    c: &mut Client,
+    view: &mut View,
+    start: &mut dyn FnMut(&mut Client) -> Result<String, ConsoleError>,
+) -> Result<(), ConsoleError> {
+    let mut terminal = ratatui::try_init()
+        .map_err(|e| ConsoleError::Io(format!("the terminal: {e} (live needs one)")))?;
+    let result = event_loop(c, view, &mut terminal, start);
+    ratatui::restore();
+    result
+}
+
+fn event_loop(
+    c: &mut Client,
+    view: &mut View,
+    terminal: &mut ratatui::DefaultTerminal,
+    start: &mut dyn FnMut(&mut Client) -> Result<String, ConsoleError>,
+) -> Result<(), ConsoleError> {
+    let mut started = false;
+    let (mut drawn, mut asked) = (Instant::now() - REDRAW, Instant::now() - STATUS_EVERY);
+    loop {
+        while event::poll(Duration::ZERO).map_err(|e| ConsoleError::Io(format!("keys: {e}")))? {
+            if let Event::Key(k) =
+                event::read().map_err(|e| ConsoleError::Io(format!("keys: {e}")))?
+                && let Some(a) = key_action(&k)
+                && act(c, view, a)?
+            {
+                return Ok(());
+            }
+        }
+        c.pump(SLICE)?;
+        view.ingest(&c.take_telemetry());
+        if !started && view.frames > 0 {
+            started = true;
+            view.message = start(c).unwrap_or_else(|e| e.to_string());
+        }
+        if asked.elapsed() >= STATUS_EVERY {
+            asked = Instant::now();
+            if let Reply::Status(s) = c.ask(Command::Status)? {
+                view.status(s);
+            }
+        }
+        if drawn.elapsed() >= REDRAW {
+            drawn = Instant::now();
+            terminal
+                .draw(|f| view.render(f))
+                .map_err(|e| ConsoleError::Io(format!("the terminal: {e}")))?;
+        }
+    }
+}
+
+/// Carries out a key's action; `true` when the view should end.
+pub fn act(c: &mut Client, view: &mut View, a: KeyAction) -> Result<bool, ConsoleError> {
+    match a {
+        KeyAction::Stop => {
+            view.message = match c.ask(Command::Stop)? {
+                Reply::Done => "stop: sent, decelerating to hold".into(),
+                Reply::Refused(r) => format!("stop refused: {}", crate::client::refusal(r)),
+                r => format!("stop: unexpected answer {r:?}"),
+            };
+            Ok(false)
+        }
+        KeyAction::Estop => {
+            view.message = match c.ask(Command::Estop)? {
+                Reply::Done => "EMERGENCY STOP: safe state (clear, then arm)".into(),
+                r => format!("estop: unexpected answer {r:?}"),
+            };
+            Ok(false)
+        }
+        KeyAction::Quit => {
+            if let Reply::Status(s) = c.ask(Command::Status)?
+                && matches!(s.mode, Mode::Moving | Mode::Stopping)
+            {
+                crate::interrupt::stop_arm(c)?;
+            }
+            Ok(true)
+        }
+    }
+}
