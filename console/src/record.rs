@@ -56,6 +56,10 @@ pub struct Info {
     pub decimation: u16,
     /// The piezo gain the firmware ran [s].
     pub k_c: f32,
+    /// The joints' `K_p` the firmware ran [N·m·s/rad] (absent from older recordings: then the
+    /// core's `Gains::default_for(motor_hz)`).
+    #[serde(default)]
+    pub kp: Option<[f32; 2]>,
     /// Frames recorded.
     pub frames: usize,
     /// Frames lost on the way (gaps in the sequence numbers).
@@ -109,10 +113,12 @@ pub fn record(
 ) -> Result<Recording, ConsoleError> {
     let hello = c.hello.clone();
     let motor_hz = f64::from(hello.motor_hz);
-    let k_c = match c.request("get kc", Command::Get(Param::Kc))? {
-        Reply::Value(v) => v,
-        r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+    let mut get = |what: &str, p: Param| match c.request(what, Command::Get(p))? {
+        Reply::Value(v) => Ok(v),
+        r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
     };
+    let k_c = get("get kc", Param::Kc)?;
+    let kp = [get("get kp0", Param::Kp(0))?, get("get kp1", Param::Kp(1))?];
     let dropped_before = dropped(c)?;
     match c.request(
         "subscribe",
@@ -189,6 +195,7 @@ pub fn record(
         piezo_hz: hello.piezo_hz,
         decimation,
         k_c,
+        kp: Some(kp),
         frames: trace.len(),
         lost: lost + u64::from(dropped),
         from,
@@ -430,6 +437,13 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
             plant_dt: 1.0 / f64::from(info.piezo_hz),
             motor_hz: f64::from(info.motor_hz),
             piezo_hz: f64::from(info.piezo_hz),
+        },
+        gains: {
+            let mut g = flexarm_core::params::Gains::default_for(info.motor_hz);
+            if let Some([k1, k2]) = info.kp {
+                (g.kp.x, g.kp.y) = (k1, k2);
+            }
+            g
         },
         duration: duration + 1.0 / f64::from(info.motor_hz),
         tail_window: 1.0,

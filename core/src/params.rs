@@ -252,7 +252,27 @@ impl<T: Real> Default for Gains<T> {
     }
 }
 
+/// The fastest rate of the joints' velocity loop under the paper's `K_p`: the largest
+/// eigenvalue of `M_θθ(θ2)⁻¹ K_p` over every `θ2`, for the paper's arm [1/s] (220.4 at
+/// `θ2 = 0`; test `the_velocity_loop_rate_is_the_models`).
+pub const PAPER_VELOCITY_LOOP_RATE: f64 = 220.5;
+
 impl<T: Real> Gains<T> {
+    /// The paper's gains for a motor loop of `motor_hz`: its joint `K_p` scaled down, when the
+    /// loop is slow, until the velocity loop's fastest rate times the period is at most 1
+    /// ([`PAPER_VELOCITY_LOOP_RATE`]). The sampled loop `ṽ ← (1 − λT) ṽ` diverges for
+    /// `λT > 2`: at 100 Hz the paper's gains give `λT = 2.2`, and the QEMU board's hold
+    /// settled into a limit cycle, its joint-1 torque flipping by about ±4 N·m every period.
+    /// At 1 kHz (`λT = 0.22`) and above the gains are the paper's.
+    #[inline]
+    pub fn default_for(motor_hz: u32) -> Self {
+        let scale = (f64::from(motor_hz) / PAPER_VELOCITY_LOOP_RATE).min(1.0);
+        let mut g = Self::default();
+        g.kp.x *= T::c(scale);
+        g.kp.y *= T::c(scale);
+        g
+    }
+
     /// Checks signs: `Λ > 0`, `K_p ≥ 0` (zero joint rows are allowed to reproduce the paper's
     /// printed gains, but leave the joints without proportional feedback), `D_Δ ≥ 0`, `ε > 0`, `φ ≥ 0`.
     pub fn validate(&self) -> Result<(), ParamError> {

@@ -229,3 +229,41 @@ fn non_finite_state_has_no_acceleration() {
             .is_none_or(|a| a.iter().any(|x| x.is_nan()))
     );
 }
+
+/// The largest eigenvalue of `M_θθ⁻¹ K` (real and positive: similar to `K^½ M⁻¹ K^½`).
+fn velocity_loop_rate(m: &Model<f64>, kp: (f64, f64), theta2: f64) -> f64 {
+    let t = m.terms(&flexarm_core::Vector4::new(0.0, theta2, 0.0, 0.0));
+    let det = t.b11 * t.b22 - t.b12 * t.b12;
+    let inv = [[t.b22 / det, -t.b12 / det], [-t.b12 / det, t.b11 / det]];
+    let a = [
+        [inv[0][0] * kp.0, inv[0][1] * kp.1],
+        [inv[1][0] * kp.0, inv[1][1] * kp.1],
+    ];
+    let (tr, d) = (a[0][0] + a[1][1], a[0][0] * a[1][1] - a[0][1] * a[1][0]);
+    (tr + (tr * tr - 4.0 * d).sqrt()) / 2.0
+}
+
+/// `PAPER_VELOCITY_LOOP_RATE` is the model's, within 0.5 /s, over every θ2; the gains
+/// `Gains::default_for` gives keep `λT ≤ 1` at every motor rate, and are the paper's at 1 kHz.
+#[test]
+fn the_velocity_loop_rate_is_the_models() {
+    use flexarm_core::params::{Gains, PAPER_VELOCITY_LOOP_RATE};
+    let m = Model::<f64>::new(ArmParams::default());
+    let worst = |g: &Gains<f64>| {
+        (0..=360)
+            .map(|k| velocity_loop_rate(&m, (g.kp.x, g.kp.y), (f64::from(k) - 180.0).to_radians()))
+            .fold(0.0, f64::max)
+    };
+    let paper = worst(&Gains::default());
+    assert!(
+        paper <= PAPER_VELOCITY_LOOP_RATE && paper > PAPER_VELOCITY_LOOP_RATE - 0.5,
+        "{paper}"
+    );
+    // The paper's gains on the QEMU board's 100 Hz loop: past the sampled loop's bound of 2.
+    assert!(paper / 100.0 > 2.0);
+    for hz in [50, 100, 200, 221, 500, 1000, 10_000] {
+        let g = Gains::<f64>::default_for(hz);
+        assert!(worst(&g) / f64::from(hz) <= 1.0 + 1e-9, "{hz} Hz");
+    }
+    assert_eq!(Gains::<f64>::default_for(1000), Gains::default());
+}

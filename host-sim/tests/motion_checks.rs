@@ -110,6 +110,7 @@ fn the_qemu_boards_moves_trip_no_motion_check() {
                 motor_hz: 100.0,
                 piezo_hz: 1000.0,
             },
+            gains: flexarm_core::params::Gains::default_for(100),
             duration: 6.0,
             ..SimConfig::default()
         };

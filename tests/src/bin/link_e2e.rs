@@ -164,6 +164,7 @@ fn simulated_error(traj: &JointTrajectory<f32>, k_c: f32) -> Result<f64, String>
             motor_hz: 100.0,
             piezo_hz: 1000.0,
         },
+        gains: flexarm_core::params::Gains::default_for(100),
         duration: f64::from(move_time) + 1.0,
         tail_window: 1.0,
         ..SimConfig::default()
