@@ -3,7 +3,7 @@
 
 use std::time::{Duration, Instant};
 
-use flexarm_link::msg::{Hello, Refusal, Telemetry};
+use flexarm_link::msg::{Channels, Hello, Param, Refusal, Status, Telemetry};
 use flexarm_link::{Command, Decoder, DeviceMsg, MAX_FRAME, Reply, Request, VERSION};
 
 use crate::transport::Link;
@@ -37,6 +37,8 @@ pub enum ConsoleError {
     Usage(String),
     /// Ctrl-C: what was done about it.
     Interrupted(String),
+    /// A check failed (bring-up): which, and what to do.
+    Failed(String),
 }
 
 impl std::fmt::Display for ConsoleError {
@@ -60,6 +62,7 @@ impl std::fmt::Display for ConsoleError {
             Self::Unexpected(what) => write!(f, "unexpected answer: {what}"),
             Self::Usage(what) => write!(f, "{what}"),
             Self::Interrupted(what) => write!(f, "interrupted: {what}"),
+            Self::Failed(what) => write!(f, "{what}"),
         }
     }
 }
@@ -242,6 +245,58 @@ impl Client {
                 why,
             }),
             r => Ok(r),
+        }
+    }
+
+    /// The firmware's status.
+    pub fn status(&mut self) -> Result<Status, ConsoleError> {
+        match self.request("status", Command::Status)? {
+            Reply::Status(s) => Ok(s),
+            r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
+        }
+    }
+
+    /// A parameter's value.
+    pub fn get(&mut self, p: Param) -> Result<f32, ConsoleError> {
+        match self.request(&format!("get {p:?}"), Command::Get(p))? {
+            Reply::Value(v) => Ok(v),
+            r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
+        }
+    }
+
+    /// Writes a parameter.
+    pub fn set(&mut self, p: Param, v: f32) -> Result<(), ConsoleError> {
+        self.done(&format!("set {p:?} = {v}"), Command::Set(p, v))
+    }
+
+    /// A request whose answer is `Done`.
+    pub fn done(&mut self, what: &str, command: Command) -> Result<(), ConsoleError> {
+        match self.request(what, command)? {
+            Reply::Done => Ok(()),
+            r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
+        }
+    }
+
+    /// Subscribes to every channel at `decimation`, doubled until the firmware accepts the
+    /// rate; returns the decimation accepted.
+    pub fn subscribe_fastest(&mut self, decimation: u16) -> Result<u16, ConsoleError> {
+        let mut d = decimation.max(1);
+        loop {
+            let channels = Channels(Channels::ALL);
+            match self.ask(Command::Subscribe {
+                decimation: d,
+                channels,
+            })? {
+                Reply::Done => return Ok(d),
+                Reply::Refused(Refusal::OutOfRange) if d < 1000 => d = d.saturating_mul(2),
+                Reply::Refused(why) => {
+                    return Err(ConsoleError::Refused {
+                        what: format!("subscribe (every {d} motor periods)"),
+                        why,
+                    });
+                }
+                r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
+            }
         }
     }
 

@@ -11,6 +11,7 @@
 //!
 //! Units are the link's (SI; angles in rad, torques in N·m, voltages in V, times in s).
 
+pub mod bringup;
 pub mod client;
 pub mod interrupt;
 pub mod live;

@@ -37,6 +37,9 @@ struct Cli {
     /// and stopped at the end (Ctrl-C included).
     #[arg(long, conflicts_with_all = ["port", "tcp"])]
     qemu: bool,
+    /// Test builds: more features of the `--qemu` firmware (`inject-reversed-encoder`, …).
+    #[arg(long, hide = true, requires = "qemu")]
+    qemu_features: Option<String>,
     /// Arm before the command (the firmware boots disarmed: `--qemu --arm move …`).
     #[arg(long)]
     arm: bool,
@@ -120,6 +123,20 @@ enum Action {
         /// Replace a `compare.svg` that no flexarm command wrote.
         #[arg(long)]
         force: bool,
+    },
+    /// A guided first power-on: loop loads, each encoder's direction and scale (a nudge under
+    /// a low torque limit), the film's sign and gain (a step of the patch's voltage); a
+    /// pass/fail table, and the configuration line to change at the first failure.
+    Bringup {
+        /// Torque limit of both joints meanwhile [N·m].
+        #[arg(long, default_value_t = 3.0)]
+        torque: f32,
+        /// Joint nudge [rad].
+        #[arg(long, default_value_t = 0.1)]
+        nudge: f32,
+        /// Step of the patch's voltage [V].
+        #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
+        bias: f32,
     },
     /// Test builds (the QEMU `link-session` firmware): assert (`on`) or release (`off`) the
     /// simulated amplifiers' fault line.
@@ -244,7 +261,10 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         (None, Some(a), false) => transport::tcp(a)?,
         // The live view follows the host's clock; every other command the firmware's own.
         (None, None, true) => qemu
-            .insert(Qemu::start(matches!(cli.command, Action::Live { .. }))?)
+            .insert(Qemu::start(
+                matches!(cli.command, Action::Live { .. }),
+                cli.qemu_features.as_deref(),
+            )?)
             .connect()?,
         _ => {
             return Err(ConsoleError::Usage(
@@ -386,7 +406,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 )));
             }
             let mv = then.map(|m| to_move(m, path.as_deref())).transpose()?;
-            let decimation = subscribe_fastest(&mut c, decimation)?;
+            let decimation = c.subscribe_fastest(decimation)?;
             let mut view = live::View::new(
                 format!("{} on {:?}", c.hello.build, c.hello.board),
                 c.hello.motor_hz,
@@ -404,6 +424,26 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             println!("live: {}", view.message);
         }
         Action::Faults { out, force } => faults(&mut c, &out, force)?,
+        Action::Bringup {
+            torque,
+            nudge,
+            bias,
+        } => {
+            let o = flexarm_console::bringup::Options {
+                torque,
+                nudge,
+                bias,
+            };
+            let report = flexarm_console::bringup::run(&mut c, &o)?;
+            print!("{}", report.table());
+            if let Some(f) = report.failed() {
+                return Err(ConsoleError::Failed(format!(
+                    "bringup: failed at {}; fix it as above and run it again",
+                    f.name
+                )));
+            }
+            println!("bringup: every check passed");
+        }
         Action::TestAmplifierFault { state } => done(
             &mut c,
             &format!("test-amplifier-fault {state}"),
@@ -449,31 +489,6 @@ fn to_move(m: MoveKind, path: Option<&[Waypoint]>) -> Result<(&'static str, Move
             },
         ),
     })
-}
-
-/// Subscribes to every channel at `decimation`, doubled until the link accepts the rate;
-/// returns the decimation accepted.
-fn subscribe_fastest(c: &mut Client, decimation: u16) -> Result<u16, ConsoleError> {
-    let mut d = decimation.max(1);
-    loop {
-        let channels = flexarm_link::msg::Channels(flexarm_link::msg::Channels::ALL);
-        match c.ask(Command::Subscribe {
-            decimation: d,
-            channels,
-        })? {
-            Reply::Done => return Ok(d),
-            Reply::Refused(flexarm_link::msg::Refusal::OutOfRange) if d < 1000 => {
-                d = d.saturating_mul(2)
-            }
-            Reply::Refused(why) => {
-                return Err(ConsoleError::Refused {
-                    what: format!("subscribe (every {d} motor periods)"),
-                    why,
-                });
-            }
-            r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
-        }
-    }
 }
 
 /// Uploads a path's waypoints in chunks, then starts the move (the caller says so: the live

@@ -5,7 +5,7 @@ use flexarm_link::msg::Param;
 use crate::client::ConsoleError;
 
 /// Every name with its parameter and unit.
-pub const NAMES: [(&str, Param, &str); 17] = [
+pub const NAMES: [(&str, Param, &str); 18] = [
     ("kp0", Param::Kp(0), "N·m·s/rad"),
     ("kp1", Param::Kp(1), "N·m·s/rad"),
     ("kp2", Param::Kp(2), "(modal row)"),
@@ -23,6 +23,7 @@ pub const NAMES: [(&str, Param, &str); 17] = [
     ("va_max", Param::VaMax, "V"),
     ("va_min", Param::VaMin, "V"),
     ("link_timeout", Param::LinkTimeout, "s"),
+    ("va_bias", Param::VaBias, "V"),
 ];
 
 /// The parameter named `name`, and its unit.

@@ -51,7 +51,8 @@ impl Qemu {
     /// Builds the firmware (cargo's no-op when it is current) and starts it: on the host's
     /// clock when `realtime` (the live view: a 2 s move takes 2 s to watch), otherwise on its
     /// own instruction count (module docs).
-    pub fn start(realtime: bool) -> Result<Self, ConsoleError> {
+    /// `features`: more firmware features, for test builds.
+    pub fn start(realtime: bool, features: Option<&str>) -> Result<Self, ConsoleError> {
         if !found("qemu-system-arm") {
             return Err(ConsoleError::Usage(
                 "--qemu needs qemu-system-arm (Debian: apt-get install qemu-system-arm)".into(),
@@ -60,7 +61,11 @@ impl Qemu {
         let root = workspace();
         let target =
             std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root.join("target"), PathBuf::from);
-        eprintln!("flexarm: building the QEMU firmware (link-session)…");
+        let features = match features {
+            Some(f) => format!("link-session,{f}"),
+            None => "link-session".into(),
+        };
+        eprintln!("flexarm: building the QEMU firmware ({features})…");
         let built = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
             .current_dir(&root)
             .args([
@@ -73,7 +78,7 @@ impl Qemu {
                 "thumbv7em-none-eabihf",
                 "--no-default-features",
                 "--features",
-                "link-session",
+                &features,
             ])
             .stdout(Stdio::null())
             .status()

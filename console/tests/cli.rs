@@ -378,3 +378,38 @@ fn a_waypoint_file_is_uploaded_in_chunks_and_run() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `bringup` on a drive with a latched fault: the first check fails, nothing is moved, the
+/// table says what to do, exit status 1; nonsense settings are refused before any request.
+#[test]
+fn bringup_refuses_a_faulted_drive_and_bad_settings() {
+    let port = firmware(ours).to_string();
+    let at = format!("127.0.0.1:{port}");
+    let o = flexarm(&["--tcp", &at, "bringup"]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}{err}");
+    assert!(
+        out.contains("state                  FAIL    fault 13"),
+        "{out}"
+    );
+    assert!(out.contains("encoder 1 direction    not run"), "{out}");
+    assert!(
+        out.contains("fix (state): fix the fault's cause, then `flexarm clear`"),
+        "{out}"
+    );
+    assert_eq!(
+        err.trim(),
+        "flexarm: bringup: failed at state; fix it as above and run it again"
+    );
+    let port = firmware(ours).to_string();
+    fails_with(
+        &[
+            "--tcp",
+            &format!("127.0.0.1:{port}"),
+            "bringup",
+            "--nudge",
+            "2",
+        ],
+        "bringup takes --torque in (0, 100] N·m, --nudge in (0, 0.5] rad",
+    );
+}

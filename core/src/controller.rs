@@ -230,6 +230,19 @@ impl<T: Real> Controller<T> {
         self.armed
     }
 
+    /// This piezo period's command plus `bias` [V], within the amplifier's window (bring-up and
+    /// identification: a step of the patch's voltage, the feedback law still running); the
+    /// observer and the telemetry see the command as applied. Zero, the safe command, when
+    /// disarmed or latched. Called after [`Self::piezo_step`], outside its hot path.
+    pub fn bias_piezo(&mut self, bias: T) -> T {
+        if !self.armed || self.latch.fault().is_some() {
+            return T::zero();
+        }
+        let l = &self.motor.limits;
+        self.v_a = (self.v_a + bias).clamp(l.v_a_min, l.v_a_max);
+        self.v_a
+    }
+
     /// The film gate: the film's range while armed with the latch clear, closed otherwise.
     fn open_gate(&mut self) {
         self.film_gate = if self.armed && self.latch.fault().is_none() {

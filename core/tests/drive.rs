@@ -353,6 +353,19 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
     assert_eq!(b.ctrl.motor.gains.kp.y, 20.0);
     b.tune(&mut t, Tunable::Kc, 3.0).unwrap();
     assert_eq!(t.get(&b.ctrl, Tunable::Kc), Ok(3.0));
+    // k_c = 0: the piezo loop off (bring-up, before the film's sign is known): a film voltage
+    // that moves gives a command with k_c = 3 s, none with 0.
+    b.ctrl.set_armed(true);
+    let ramp = |b: &mut Bench| {
+        (1..=5)
+            .map(|k| b.ctrl.piezo_step(0.01 * k as f32).abs())
+            .sum::<f32>()
+    };
+    assert!(ramp(&mut b) > 1.0);
+    b.tune(&mut t, Tunable::Kc, 0.0).unwrap();
+    assert_eq!(ramp(&mut b), 0.0);
+    b.tune(&mut t, Tunable::Kc, 3.0).unwrap();
+    b.ctrl.set_armed(false);
     let want = PiezoLaw::new(
         &PiezoGains {
             k_c: 3.0,

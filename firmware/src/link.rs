@@ -40,6 +40,11 @@ pub const BAUD: u32 = 921_600;
 /// the idle task, read by the motor loop, which queues a record every this many periods.
 pub static STREAM_EVERY: AtomicU32 = AtomicU32::new(0);
 
+/// The piezo bias `Param::VaBias` [V, f32 bits]: set by the idle task while the drive holds,
+/// added by the piezo loop (`Controller::bias_piezo`), cleared by the motor loop the period the
+/// drive leaves holding.
+pub static PIEZO_BIAS: AtomicU32 = AtomicU32::new(0);
+
 /// Whether a stream of `channels` every `decimation` motor periods fits in 80 % of the line
 /// (the rest for replies): `frame bytes · MOTOR_HZ / decimation ≤ 0.8 · BAUD / 10` (8N1).
 /// The QEMU board's socket has no baud rate; the same rule holds there, at its 100 Hz loop.
@@ -279,6 +284,21 @@ impl Session {
                 STREAM_EVERY.store(0, Relaxed);
                 Reply::Done
             }
+            Command::Get(Param::VaBias) => Reply::Value(f32::from_bits(PIEZO_BIAS.load(Relaxed))),
+            Command::Set(Param::VaBias, v) => match drive.mode(ctrl) {
+                drive::Mode::Armed => {
+                    let l = &ctrl.motor.limits;
+                    if (l.v_a_min..=l.v_a_max).contains(&v) {
+                        PIEZO_BIAS.store(v.to_bits(), Relaxed);
+                        Reply::Done
+                    } else {
+                        Reply::Refused(Refusal::OutOfRange)
+                    }
+                }
+                drive::Mode::Moving | drive::Mode::Stopping => Reply::Refused(Refusal::Moving),
+                drive::Mode::Fault => Reply::Refused(Refusal::Faulted),
+                drive::Mode::Disarmed => Reply::Refused(Refusal::NotArmed),
+            },
             Command::Get(Param::LinkTimeout) => {
                 Reply::Value(drive.link_timeout as f32 / MOTOR_HZ as f32)
             }
@@ -468,7 +488,7 @@ fn tunable(p: Param) -> Result<Tunable, TuneError> {
         Param::TauMax(i) => Tunable::TauMax(usize::from(i)),
         Param::VaMax => Tunable::VaMax,
         Param::VaMin => Tunable::VaMin,
-        Param::LinkTimeout => return Err(TuneError::Unknown),
+        Param::LinkTimeout | Param::VaBias => return Err(TuneError::Unknown),
     })
 }
 

@@ -469,7 +469,13 @@ mod app {
             defmt::warn!("injecting a NaN film sample at t = 1 s");
             v_f = f32::NAN;
         }
-        let v_a = cx.shared.ctrl.lock(|c| c.piezo_step(v_f));
+        let v_a = cx.shared.ctrl.lock(|c| {
+            let v_a = c.piezo_step(v_f);
+            match f32::from_bits(crate::link::PIEZO_BIAS.load(Relaxed)) {
+                0.0 => v_a,
+                bias => c.bias_piezo(bias),
+            }
+        });
         cx.shared.board.lock(|b| {
             b.set_piezo(v_a);
             b.tick();
@@ -515,11 +521,12 @@ mod app {
             if let Err(f) = amp {
                 c.trip(f);
             }
-            (
-                d.step(c, tick, Some(&Measurement { theta, v_f })),
-                c.fault(),
-                c.step_estimate(),
-            )
+            let report = d.step(c, tick, Some(&Measurement { theta, v_f }));
+            // The piezo bias lives while the drive holds, not a period longer.
+            if d.mode(c) != flexarm_core::drive::Mode::Armed {
+                crate::link::PIEZO_BIAS.store(0, Relaxed);
+            }
+            (report, c.fault(), c.step_estimate())
         });
         let cmd = report.command;
         let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);

@@ -142,6 +142,10 @@ pub enum Param {
     VaMin,
     /// Link watchdog timeout [s]; 0 disables it.
     LinkTimeout,
+    /// A constant added to the piezo command [V], within the amplifier's window, for bring-up
+    /// and identification (`flexarm bringup`): written only while armed and holding; back to 0
+    /// as soon as the drive leaves holding (a move, a stop, a disarm, a fault).
+    VaBias,
 }
 
 /// Telemetry channels, one bit each (the values follow in this order).

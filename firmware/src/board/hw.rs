@@ -44,12 +44,8 @@ const PIEZO_FULL_SCALE_V: f32 = 200.0;
 /// patch: (3.1 − 1.65) / 1.65 × 200 V = 175.8 V, rounded down. The controller's limit.
 pub const PIEZO_V_MAX: f32 = 175.0;
 
-/// Per axis, `true` reverses the encoder's counting direction (the timer's input polarity),
-/// for an encoder mounted or wired the other way round: angles must grow counter-clockwise.
-pub const ENCODER_REVERSED: [bool; 2] = [false, false];
+use super::wiring::{COUNTS_PER_REV, ENCODER_REVERSED, FILM_INVERTED};
 
-/// Encoder counts per revolution (4096-line encoders, ×4 quadrature).
-const COUNTS_PER_REV: f32 = 16384.0;
 /// Film channel: ±10 V at the film maps to 0–3.3 V at the ADC.
 const FILM_RANGE: f32 = 10.0;
 /// TIM12 input clock (APB1 timers) [Hz] and PWM rate [Hz].
@@ -292,7 +288,10 @@ impl Board for HwBoard {
             *count = count.wrapping_add(i32::from(step));
             *raw = *n;
         }
-        Vector2::new(self.counts[0] as f32, self.counts[1] as f32) * (TAU / COUNTS_PER_REV)
+        Vector2::new(
+            self.counts[0] as f32 * (TAU / COUNTS_PER_REV[0]),
+            self.counts[1] as f32 * (TAU / COUNTS_PER_REV[1]),
+        )
     }
 
     /// The conversion TIM2's update started at the beginning of this piezo period (the
@@ -303,7 +302,8 @@ impl Board for HwBoard {
         let eoc = (0..ADC_POLLS).any(|_| self.adc.sr().read().bits() & (1 << 1) != 0);
         self.film = if eoc {
             let code = (self.adc.dr().read().bits() & 0xFFF) as f32; // clears EOC
-            (code / 4095.0 * 2.0 - 1.0) * FILM_RANGE
+            let v = (code / 4095.0 * 2.0 - 1.0) * FILM_RANGE;
+            if FILM_INVERTED { -v } else { v }
         } else {
             f32::NAN
         };

@@ -9,7 +9,7 @@ use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use flexarm_core::Vector2;
 use flexarm_core::simarm::SimArm;
 
-use super::Board;
+use super::{Board, wiring};
 
 /// The board's outputs as last written, readable from any context: the emergency handlers
 /// force and read them (`crate::emergency`), the injection runs judge them.
@@ -173,10 +173,24 @@ impl Board for SimBoard {
         if self.steps as f32 * self.dt >= 1.0 {
             theta.y = *self.frozen.get_or_insert(theta.y);
         }
-        theta
+        // The configured wiring, as the hardware board applies it: the simulated encoders
+        // count `counts_per_rev` (16384) a revolution.
+        let counts = self.arm.sensors.counts_per_rev;
+        let sign = |r: bool| if r { -1.0 } else { 1.0 };
+        Vector2::new(
+            theta.x * sign(wiring::ENCODER_REVERSED[0]) * (counts / wiring::COUNTS_PER_REV[0]),
+            theta.y * sign(wiring::ENCODER_REVERSED[1]) * (counts / wiring::COUNTS_PER_REV[1]),
+        )
     }
     fn film_voltage(&mut self) -> f32 {
-        self.arm.film_voltage()
+        let v = self.arm.film_voltage();
+        // A film wired the other way round (a test build), then the configured wiring.
+        let v = if cfg!(feature = "inject-film-reversed") {
+            -v
+        } else {
+            v
+        };
+        if wiring::FILM_INVERTED { -v } else { v }
     }
     fn set_torques(&mut self, tau: Vector2<f32>) {
         OUTPUTS.set_torques(tau);

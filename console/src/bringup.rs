@@ -1,0 +1,595 @@
+//! `bringup`: a guided first power-on of a new arm (docs/console.md, "Bring-up").
+//!
+//! In order, each check only after the previous passed (a failed one ends the bring-up, with
+//! the configuration line to change):
+//!
+//! 1. **state**: the drive is disarmed or holding, no fault latched.
+//! 2. **loop loads**: over half a second of telemetry, each loop's mean load below 50 % and no
+//!    deadline missed since boot.
+//! 3. **encoders**, joint 1 then joint 2, under the bring-up torque limit (`--torque`, default
+//!    3 N·m, against the firmware's 10) and with the piezo loop off (`k_c = 0`: with a film
+//!    that reads inverted, the rate feedback would pump the link's vibration; on the QEMU
+//!    arm it drove the patch between its ±200 V limits): the drive arms (holding), then nudges the joint by
+//!    `--nudge` rad (default 0.1) in a 1 s trapezoid with 0.25 s ramps while the other holds,
+//!    and back. *Direction*: the joint's reading moves by the nudge; an encoder that counts the
+//!    other way turns the hold into positive feedback, which the drive's runaway check cuts in
+//!    category 0 (`docs/safety.md`) — the joint whose reading moved against its torque is the
+//!    reversed one. *Counts per radian*: with a wrong scale `k` (reading = k × angle) the loop
+//!    still makes the reading follow the reference, so the joint really moves 1/k as far and
+//!    needs 1/k of the torque: the ratio `r` of the torque the nudge took (mean over the
+//!    accelerating ramp minus mean over the decelerating one, which cancels friction) to the
+//!    model's `2 b_ii a` estimates 1/k. It passes within 0.67–1.5: the model's inertia is not
+//!    the arm's before identification, and a scale mistake (quadrature ×4, a gear ratio, 2π) is
+//!    a factor of 2 or more.
+//! 4. **film**, holding, the piezo loop still off: the patch's voltage stepped by `--bias` V
+//!    (default 40) through `va_bias`, for one second. *Sign*: the film's static
+//!    response must have the model's sign (`V_a = −k_c V̇_f` damps only then; inverted, the
+//!    feedback would pump the vibration). *Gain*: its ratio to the model's static gain
+//!    `k_a k_s Σ s_j²/ω_j²` within 0.5–2.
+//!
+//! Whatever happens, the torque limits are written back, and `k_c` too unless the film failed
+//! (then the piezo loop stays off until it is fixed, `flexarm set kc …` after), and a drive that was
+//! disarmed at the start is disarmed again (a latched fault is left latched: it is the safe
+//! state, and `clear` is the operator's once the cause is fixed). Angles in rad, torques in N·m,
+//! voltages in V, times in s.
+
+use std::time::{Duration, Instant};
+
+use flexarm_core::Vector4;
+use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_link::Command;
+use flexarm_link::msg::{Mode, Move, Param, Status, Telemetry};
+
+use crate::client::{Client, ConsoleError};
+use crate::{fault_name, interrupt};
+
+/// The bring-up's settings.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// Torque limit of both joints during the bring-up [N·m].
+    pub torque: f32,
+    /// Joint nudge [rad].
+    pub nudge: f32,
+    /// Piezo voltage step [V].
+    pub bias: f32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            torque: 3.0,
+            nudge: 0.1,
+            bias: 40.0,
+        }
+    }
+}
+
+/// A check's outcome.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// Passed.
+    Pass,
+    /// Failed: the bring-up stopped here.
+    Fail,
+    /// Not reached.
+    NotRun,
+}
+
+/// One row of the table.
+#[derive(Clone, Debug)]
+pub struct Check {
+    /// What is checked.
+    pub name: &'static str,
+    /// The outcome.
+    pub verdict: Verdict,
+    /// What was measured.
+    pub measured: String,
+    /// What passes.
+    pub expected: String,
+    /// What to change when it failed: the configuration line, or the step to take.
+    pub fix: String,
+}
+
+/// The checks, in the order they run.
+pub const CHECKS: [&str; 8] = [
+    "state",
+    "loop loads",
+    "encoder 1 direction",
+    "encoder 1 counts/rad",
+    "encoder 2 direction",
+    "encoder 2 counts/rad",
+    "film sign",
+    "film gain",
+];
+
+/// Where the wiring is configured.
+const WIRING: &str = "firmware/src/board.rs, mod wiring";
+
+/// The bring-up's result: every check, run or not.
+#[derive(Clone, Debug)]
+pub struct Report {
+    /// In [`CHECKS`] order.
+    pub checks: Vec<Check>,
+}
+
+impl Report {
+    fn new() -> Self {
+        Self {
+            checks: CHECKS
+                .iter()
+                .map(|&name| Check {
+                    name,
+                    verdict: Verdict::NotRun,
+                    measured: String::new(),
+                    expected: String::new(),
+                    fix: String::new(),
+                })
+                .collect(),
+        }
+    }
+
+    /// Records check `name`; `true` when it passed.
+    fn record(
+        &mut self,
+        name: &str,
+        pass: bool,
+        measured: String,
+        expected: &str,
+        fix: String,
+    ) -> bool {
+        if let Some(c) = self.checks.iter_mut().find(|c| c.name == name) {
+            c.verdict = if pass { Verdict::Pass } else { Verdict::Fail };
+            c.measured = measured;
+            c.expected = expected.into();
+            c.fix = if pass { String::new() } else { fix };
+        }
+        pass
+    }
+
+    /// The failed check, if any.
+    pub fn failed(&self) -> Option<&Check> {
+        self.checks.iter().find(|c| c.verdict == Verdict::Fail)
+    }
+
+    /// The pass/fail table, then each failure's fix.
+    pub fn table(&self) -> String {
+        let mut t = format!(
+            "{:<22} {:<7} {:<46} {}\n",
+            "check", "result", "measured", "passes when"
+        );
+        for c in &self.checks {
+            let v = match c.verdict {
+                Verdict::Pass => "pass",
+                Verdict::Fail => "FAIL",
+                Verdict::NotRun => "not run",
+            };
+            t += &format!(
+                "{:<22} {:<7} {:<46} {}\n",
+                c.name, v, c.measured, c.expected
+            );
+        }
+        if let Some(c) = self.failed() {
+            t += &format!("fix ({}): {}\n", c.name, c.fix);
+        }
+        t
+    }
+}
+
+/// Runs the bring-up on `c`; the report says what passed. An error is a failure of the line
+/// or of the tool, not of a check.
+pub fn run(c: &mut Client, o: &Options) -> Result<Report, ConsoleError> {
+    if !(o.torque > 0.0
+        && o.torque <= 100.0
+        && o.nudge > 0.0
+        && o.nudge <= 0.5
+        && o.bias.abs() > 0.0
+        && o.bias.abs() <= 200.0)
+    {
+        return Err(ConsoleError::Usage(
+            "bringup takes --torque in (0, 100] N·m, --nudge in (0, 0.5] rad, --bias in (0, 200] V"
+                .into(),
+        ));
+    }
+    let mut r = Report::new();
+    let s = c.status()?;
+    let ok = match (s.mode, s.fault) {
+        (Mode::Fault, f) => {
+            let name = f.map_or("?".into(), |f| format!("{f} ({})", fault_name(f)));
+            r.record(
+                "state",
+                false,
+                format!("fault {name} latched"),
+                "disarmed or holding",
+                "fix the fault's cause, then `flexarm clear`".into(),
+            )
+        }
+        (Mode::Moving | Mode::Stopping, _) => r.record(
+            "state",
+            false,
+            "a move runs".into(),
+            "disarmed or holding",
+            "`flexarm stop`, then start again".into(),
+        ),
+        (m, _) => r.record(
+            "state",
+            true,
+            format!("{m:?}").to_lowercase(),
+            "disarmed or holding",
+            String::new(),
+        ),
+    };
+    if !ok {
+        return Ok(r);
+    }
+    let was_armed = s.mode == Mode::Armed;
+    c.subscribe_fastest(1)?;
+    let motor_hz = f64::from(c.hello.motor_hz.max(1));
+    let frames = collect(c, 0.5, motor_hz)?;
+    let s = c.status()?;
+    if !loads(&mut r, &frames, &s) {
+        return finish(c, r, None, was_armed);
+    }
+    let saved = Saved {
+        tau_max: [c.get(Param::TauMax(0))?, c.get(Param::TauMax(1))?],
+        k_c: c.get(Param::Kc)?,
+    };
+    c.set(Param::TauMax(0), o.torque.min(saved.tau_max[0]))?;
+    c.set(Param::TauMax(1), o.torque.min(saved.tau_max[1]))?;
+    c.set(Param::Kc, 0.0)?;
+    let outcome = experiments(c, o, &mut r, motor_hz);
+    // The experiments' error first; the restore's only when they had none.
+    let restored = finish(c, r, Some(saved), was_armed);
+    outcome.and(restored)
+}
+
+/// What the bring-up changes and writes back.
+struct Saved {
+    tau_max: [f32; 2],
+    k_c: f32,
+}
+
+/// The encoder and film checks (the drive armed from here on).
+fn experiments(
+    c: &mut Client,
+    o: &Options,
+    r: &mut Report,
+    motor_hz: f64,
+) -> Result<(), ConsoleError> {
+    let model = crate::record::paper_model();
+    if c.status()?.mode == Mode::Disarmed {
+        c.done("arm", Command::Arm)?;
+    }
+    for joint in 0..2 {
+        if !encoder(c, o, r, joint, motor_hz, &model)? {
+            return Ok(());
+        }
+    }
+    film(c, o, r, motor_hz, &model)?;
+    Ok(())
+}
+
+/// Writes back what was changed (`k_c` only if the film passed or was not reached), and
+/// disarms a drive found disarmed (a latched fault stays latched).
+fn finish(
+    c: &mut Client,
+    r: Report,
+    saved: Option<Saved>,
+    was_armed: bool,
+) -> Result<Report, ConsoleError> {
+    let _ = c.ask(Command::Unsubscribe)?;
+    let s = c.status()?;
+    if s.mode == Mode::Armed {
+        let _ = c.ask(Command::Set(Param::VaBias, 0.0))?;
+    }
+    if let Some(saved) = saved {
+        c.set(Param::TauMax(0), saved.tau_max[0])?;
+        c.set(Param::TauMax(1), saved.tau_max[1])?;
+        if !r.failed().is_some_and(|f| f.name.starts_with("film")) {
+            c.set(Param::Kc, saved.k_c)?;
+        }
+    }
+    if !was_armed && s.mode == Mode::Armed {
+        c.done("disarm", Command::Disarm)?;
+    }
+    Ok(r)
+}
+
+/// Telemetry for `seconds` of the firmware's time (its ticks), the line kept busy.
+fn collect(c: &mut Client, seconds: f64, motor_hz: f64) -> Result<Vec<Telemetry>, ConsoleError> {
+    let mut frames: Vec<Telemetry> = Vec::new();
+    let periods = (seconds * motor_hz).round() as u64;
+    let deadline = Instant::now() + Duration::from_secs_f64(seconds * 2.0 + 5.0);
+    loop {
+        interrupted(c)?;
+        c.pump(Duration::from_millis(20))?;
+        frames.extend(c.take_telemetry());
+        if let (Some(a), Some(b)) = (frames.first(), frames.last())
+            && b.tick >= a.tick + periods
+        {
+            return Ok(frames);
+        }
+        if Instant::now() > deadline {
+            return Err(ConsoleError::Timeout(format!("{seconds} s of telemetry")));
+        }
+        c.ask(Command::Ping)?;
+        frames.extend(c.take_telemetry());
+    }
+}
+
+/// Ctrl-C: the arm stopped, the bring-up ended.
+fn interrupted(c: &mut Client) -> Result<(), ConsoleError> {
+    if interrupt::requested() {
+        interrupt::stop_arm(c)?;
+        return Err(ConsoleError::Interrupted(
+            "bringup: the arm was stopped; the torque limits and k_c are the bring-up's (`flexarm get tau_max0`, `get kc`)".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Starts `m` and follows it to its end: the frames meanwhile and a quarter second after, and
+/// the status it ended in.
+fn follow(
+    c: &mut Client,
+    what: &str,
+    m: Move,
+    motor_hz: f64,
+) -> Result<(Vec<Telemetry>, Status), ConsoleError> {
+    c.done(what, Command::Move(m))?;
+    let mut frames = Vec::new();
+    let start = Instant::now();
+    let ended = loop {
+        interrupted(c)?;
+        c.pump(Duration::from_millis(20))?;
+        let s = c.status()?;
+        frames.extend(c.take_telemetry());
+        if !matches!(s.mode, Mode::Moving | Mode::Stopping) {
+            break s;
+        }
+        if start.elapsed() > Duration::from_secs(30) {
+            c.ask(Command::Estop)?;
+            return Err(ConsoleError::Timeout(format!(
+                "{what} to end (emergency stop sent)"
+            )));
+        }
+    };
+    if ended.mode != Mode::Fault {
+        frames.extend(collect(c, 0.25, motor_hz)?);
+    }
+    Ok((frames, ended))
+}
+
+/// A frame's values by channel (every channel subscribed): e, θ̂, δ̂, τ, V_a, V_f, loads.
+struct Values<'a>(&'a [f32]);
+
+impl Values<'_> {
+    fn at(&self, i: usize) -> f64 {
+        self.0.get(i).map_or(f64::NAN, |&v| f64::from(v))
+    }
+    fn error(&self, j: usize) -> f64 {
+        self.at(j)
+    }
+    fn theta(&self, j: usize) -> f64 {
+        self.at(2 + j)
+    }
+    fn tau(&self, j: usize) -> f64 {
+        self.at(6 + j)
+    }
+    /// The reference θ_d = θ̂ − (θ̂ − θ_d).
+    fn reference(&self, j: usize) -> f64 {
+        self.theta(j) - self.error(j)
+    }
+}
+
+fn values(f: &Telemetry) -> Values<'_> {
+    Values(&f.values)
+}
+
+fn mean(x: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = x.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    if n == 0 { f64::NAN } else { s / n as f64 }
+}
+
+/// Check 2.
+fn loads(r: &mut Report, frames: &[Telemetry], s: &Status) -> bool {
+    let load = |i: usize| mean(frames.iter().map(|f| values(f).at(10 + i)));
+    let (piezo, motor) = (load(0), load(1));
+    let misses = [s.loads[0].misses, s.loads[1].misses];
+    let pass = piezo < 0.5 && motor < 0.5 && misses == [0, 0];
+    r.record(
+        "loop loads",
+        pass,
+        format!(
+            "piezo {:.2} %, motor {:.2} %; misses {}, {}",
+            piezo * 100.0,
+            motor * 100.0,
+            misses[0],
+            misses[1]
+        ),
+        "each below 50 %, no miss",
+        "a loop too slow for its rate: lower PIEZO_HZ (the motor loop runs a tenth of it) in firmware/src/config.rs, or build with a higher optimization".into(),
+    )
+}
+
+/// Check 3 for `joint` (0 or 1): the nudge out and back. `false` when a check failed.
+fn encoder(
+    c: &mut Client,
+    o: &Options,
+    r: &mut Report,
+    joint: usize,
+    motor_hz: f64,
+    model: &flexarm_core::model::Model<f64>,
+) -> Result<bool, ConsoleError> {
+    let (direction, scale) = match joint {
+        0 => ("encoder 1 direction", "encoder 1 counts/rad"),
+        _ => ("encoder 2 direction", "encoder 2 counts/rad"),
+    };
+    let before = collect(c, 0.25, motor_hz)?;
+    let Some(last) = before.last() else {
+        return Err(ConsoleError::Timeout("telemetry".into()));
+    };
+    let held = [values(last).reference(0), values(last).reference(1)];
+    let mut target = held;
+    target[joint] += f64::from(o.nudge);
+    let (time, ramp) = (1.0f32, 0.25f32);
+    let nudge = Move::Trapezoid {
+        target: [target[0] as f32, target[1] as f32],
+        move_time: time,
+        ramp_time: ramp,
+    };
+    let (frames, ended) = follow(c, &format!("nudge joint {}", joint + 1), nudge, motor_hz)?;
+    let expected = format!("+{:.3} rad", o.nudge);
+    if ended.mode == Mode::Fault {
+        // The joint whose reading moved against its torque runs away: its encoder is reversed.
+        let all: Vec<&Telemetry> = before.iter().chain(&frames).collect();
+        let against = |j: usize| -> f64 {
+            all.windows(2)
+                .map(|w| values(w[0]).tau(j) * (values(w[1]).theta(j) - values(w[0]).theta(j)))
+                .sum()
+        };
+        let k = if against(0) <= against(1) { 0 } else { 1 };
+        let f = ended
+            .fault
+            .map_or("?".into(), |f| format!("{f} ({})", fault_name(f)));
+        let name = if k == 0 {
+            "encoder 1 direction"
+        } else {
+            "encoder 2 direction"
+        };
+        // The other joint's checks did not run.
+        let mut flip = [false, false];
+        flip[k] = true;
+        r.record(
+            name,
+            false,
+            format!("fault {f} nudging joint {}; joint {} moved against its torque", joint + 1, k + 1),
+            &expected,
+            format!(
+                "encoder {} counts the other way: in {WIRING}, flip ENCODER_REVERSED[{k}] (from the default: `pub const ENCODER_REVERSED: [bool; 2] = [{}, {}];`), then `flexarm clear` and bring up again",
+                k + 1,
+                flip[0],
+                flip[1]
+            ),
+        );
+        return Ok(false);
+    }
+    let moved = frames
+        .last()
+        .map_or(f64::NAN, |f| values(f).theta(joint) - held[joint]);
+    let nudge_rad = f64::from(o.nudge);
+    let pass = (moved - nudge_rad).abs() <= 0.2 * nudge_rad;
+    let ok = r.record(
+        direction,
+        pass,
+        format!("{moved:+.3} rad"),
+        &expected,
+        format!(
+            "joint {} did not follow the nudge within 20 %: check the encoder's cable and {WIRING}",
+            joint + 1
+        ),
+    );
+    if !ok {
+        return Ok(false);
+    }
+    // The move's start: the first frame whose reference has left the held pose.
+    let t0 = frames
+        .iter()
+        .find(|f| (values(f).reference(joint) - held[joint]).abs() > 1e-6)
+        .map_or(0, |f| f.tick.saturating_sub(1));
+    let span = |from: f64, to: f64| {
+        mean(frames.iter().filter_map(|f| {
+            let t = f.tick.saturating_sub(t0) as f64 / motor_hz;
+            (t >= from && t < to).then(|| values(f).tau(joint))
+        }))
+    };
+    let (time, ramp) = (f64::from(time), f64::from(ramp));
+    let push = span(0.0, ramp) - span(time - ramp, time);
+    let a = nudge_rad / (ramp * (time - ramp));
+    let t = model.terms(&Vector4::new(held[0], held[1], 0.0, 0.0));
+    let b = if joint == 0 { t.b11 } else { t.b22 };
+    let ratio = push / (2.0 * b * a);
+    let ok = r.record(
+        scale,
+        (0.67..=1.5).contains(&ratio),
+        format!("torque {ratio:.2} × the model's ({push:.3} N·m)"),
+        "0.67–1.5 × the model's",
+        format!(
+            "the reading is about {:.2} × the angle: in {WIRING}, multiply COUNTS_PER_REV[{joint}] by about {:.2} (the likely factor is a whole one: ×4 quadrature, a gear ratio); if the scale is right, the arm's inertia is far from the model's, which the controller's model must then be made to match",
+            1.0 / ratio,
+            1.0 / ratio,
+        ),
+    );
+    if !ok {
+        return Ok(false);
+    }
+    let back = Move::Trapezoid {
+        target: [held[0] as f32, held[1] as f32],
+        move_time: time as f32,
+        ramp_time: ramp as f32,
+    };
+    let (_, ended) = follow(c, &format!("joint {} back", joint + 1), back, motor_hz)?;
+    if ended.mode == Mode::Fault {
+        return Err(ConsoleError::Unexpected(format!(
+            "fault {} moving joint {} back",
+            ended
+                .fault
+                .map_or("?".into(), |f| format!("{f} ({})", fault_name(f))),
+            joint + 1
+        )));
+    }
+    Ok(true)
+}
+
+/// The film's static volts per volt of the patch, joints held (the model: the patch's modal
+/// forces `c_a` over the modal stiffness, read by the film).
+pub fn film_gain_model(model: &flexarm_core::model::Model<f64>, patch: &PiezoPatch<f64>) -> f64 {
+    let (ca, k) = (patch.c_a(), model.modal_stiffness());
+    patch.film_voltage(&Vector4::new(0.0, 0.0, ca.x / k.x, ca.y / k.y))
+}
+
+/// Check 4: the patch's voltage stepped, the film's answer.
+fn film(
+    c: &mut Client,
+    o: &Options,
+    r: &mut Report,
+    motor_hz: f64,
+    model: &flexarm_core::model::Model<f64>,
+) -> Result<(), ConsoleError> {
+    let base = collect(c, 0.5, motor_hz)?;
+    c.set(Param::VaBias, o.bias)?;
+    let step = collect(c, 1.0, motor_hz)?;
+    c.set(Param::VaBias, 0.0)?;
+    // The settled halves.
+    let settled =
+        |f: &[Telemetry], i: usize| mean(f[f.len() / 2..].iter().map(|f| values(f).at(i)));
+    let (va, vf) = (
+        settled(&step, 8) - settled(&base, 8),
+        settled(&step, 9) - settled(&base, 9),
+    );
+    let measured = vf / va;
+    let expected = film_gain_model(model, &PiezoPatch::<f64>::paper());
+    let ratio = measured / expected;
+    let text = format!(
+        "{:+.2e} V/V ({ratio:+.2} × the model's, V_a step {va:.1} V)",
+        measured
+    );
+    if !r.record(
+        "film sign",
+        ratio > 0.0,
+        text.clone(),
+        &format!("{:+.2e} V/V: the model's sign", expected),
+        format!(
+            "the film reads inverted (the rate feedback would pump the vibration): in {WIRING}, flip FILM_INVERTED (from the default: `pub const FILM_INVERTED: bool = true;`); k_c is left at 0, the piezo loop off, until then"
+        ),
+    ) {
+        return Ok(());
+    }
+    r.record(
+        "film gain",
+        (0.5..=2.0).contains(&ratio),
+        text,
+        "0.5–2 × the model's",
+        "the film's gain is off: check the charge amplifier's gain and FILM_RANGE (firmware/src/board/hw.rs), and k_s, c_s in firmware/piezo.toml; k_c is left at 0, the piezo loop off, until then".into(),
+    );
+    Ok(())
+}
