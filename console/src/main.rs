@@ -373,7 +373,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 )));
             }
             let mv = then.map(|m| to_move(m, path.as_deref())).transpose()?;
-            let r = record::record(
+            let mut r = record::record(
                 &mut c,
                 seconds,
                 decimation,
@@ -387,6 +387,12 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     None => Ok(()),
                 },
             )?;
+            // A path's points, for `compare`.
+            if let Some((_, Move::Waypoints { .. })) = mv {
+                r.info.waypoints = path
+                    .as_deref()
+                    .map(|p| p.iter().map(|w| [w.theta[0], w.theta[1], w.dt]).collect());
+            }
             let (frames, lost) = (r.info.frames, r.info.lost);
             let names = record::save(r, &out, force)?;
             println!(

@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 use flexarm_core::Vector2;
 use flexarm_core::control::motor::MotorLaw;
 use flexarm_core::controller::Controller;
-use flexarm_core::drive::{Drive, MoveLimits, MoveRequest};
+use flexarm_core::drive::{Drive, MoveLimits, MoveRequest, Waypoint};
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::plant::State;
 use flexarm_core::time::Ticks;
@@ -32,7 +32,7 @@ use flexarm_link::msg::{Channels, Move, Param, Telemetry};
 use flexarm_link::{Command, Reply};
 use flexarm_sim::outdir::OutDir;
 use flexarm_sim::sim::{
-    Rates, Sample, Sensors, SimConfig, StateSource, Summary, simulate, summarize,
+    Rates, Sample, Sensors, SimConfig, StateSource, Summary, simulate_segments, summarize,
 };
 use flexarm_sim::study::{Case, Outcome};
 use serde::{Deserialize, Serialize};
@@ -69,6 +69,9 @@ pub struct Info {
     /// The move.
     #[serde(rename = "move")]
     pub mv: Option<Move>,
+    /// A waypoint path's points, `[θ1, θ2, dt]` [rad, rad, s] (the move names only their count).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub waypoints: Option<Vec<[f32; 3]>>,
 }
 
 /// A finished recording.
@@ -200,6 +203,7 @@ pub fn record(
         lost: lost + u64::from(dropped),
         from,
         mv,
+        waypoints: None,
     };
     Ok(Recording { trace, info })
 }
@@ -376,12 +380,9 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
             ramp_time,
             clockwise,
         },
-        Move::Waypoints { .. } => {
-            return Err(ConsoleError::Usage(
-                "compare simulates trapezoids and circles; a waypoint path is not supported yet"
-                    .into(),
-            ));
-        }
+        Move::Waypoints { count } => MoveRequest::Waypoints {
+            count: count.into(),
+        },
     };
     // The drive's own plan of the move, from the pose recorded at its start.
     let mut ctrl = Controller::<f32>::paper(
@@ -391,12 +392,51 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
         1.0 / info.motor_hz as f32,
         gain(&GAIN_1KHZ),
     );
-    let drive = Drive::new(&mut ctrl, info.motor_hz, Ticks(0), MoveLimits::default());
+    let mut drive = Drive::new(&mut ctrl, info.motor_hz, Ticks(0), MoveLimits::default());
     let from = Vector2::new(info.from[0], info.from[1]);
+    if let MoveRequest::Waypoints { count } = request {
+        let points: Vec<Waypoint<f32>> = info
+            .waypoints
+            .as_deref()
+            .filter(|w| w.len() == count)
+            .ok_or_else(|| {
+                ConsoleError::Usage(format!(
+                    "{shown}: a path of {count} waypoints without its points (`waypoints`; recorded by an older console?)"
+                ))
+            })?
+            .iter()
+            .map(|&[t1, t2, dt]| Waypoint {
+                theta: Vector2::new(t1, t2),
+                dt,
+            })
+            .collect();
+        drive.load_waypoints(&ctrl, 0, &points).map_err(|why| {
+            ConsoleError::Usage(format!("{shown}: the drive refuses the waypoints: {why:?}"))
+        })?;
+    }
     let plan = drive.plan(&ctrl.motor, from, &request).map_err(|why| {
         ConsoleError::Usage(format!("{shown}: the drive refuses the move: {why:?}"))
     })?;
-    let traj = plan.trajectory();
+    // The segments the drive runs, each from its start (one for a trapezoid or a circle).
+    let segments: Vec<(f64, JointTrajectory<f32>)> = match request {
+        MoveRequest::Waypoints { count } => {
+            let mut start = 0.0;
+            drive
+                .path_segments(from, count)
+                .map(|c| {
+                    let s = (start, JointTrajectory::Cubic(c));
+                    start += f64::from(c.duration);
+                    s
+                })
+                .collect()
+        }
+        _ => vec![(0.0, plan.trajectory())],
+    };
+    let reference = |t: f64| {
+        let i = segments.partition_point(|(s, _)| *s <= t).saturating_sub(1);
+        let (s, seg) = segments[i];
+        seg.sample((t - s) as f32).q
+    };
     // The move's start: the last frame before the recorded reference leaves the held pose (the
     // console's own mark, taken before the request's round trip, can be many frames early under
     // QEMU's instruction clock). θ_d = θ̂ − (θ̂ − θ_d) is the step's reference to the float's
@@ -449,14 +489,14 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
         tail_window: 1.0,
         ..SimConfig::default()
     };
-    let (_, simulated) = simulate(&cfg, &traj, true)
+    let (_, simulated) = simulate_segments(&cfg, &segments, true)
         .map_err(|e| ConsoleError::Usage(format!("the simulation: {e}")))?;
     // Align on the reference, within two frames.
     let gap = |shift: f64| {
         let sum: f64 = recorded
             .iter()
             .map(|s| {
-                let r = traj.sample((s.t + shift) as f32).q;
+                let r = reference(s.t + shift);
                 (s.q_d.x - f64::from(r.x)).abs() + (s.q_d.y - f64::from(r.y)).abs()
             })
             .sum();

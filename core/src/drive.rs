@@ -623,6 +623,17 @@ impl<T: Real> Drive<T> {
         self.path_len
     }
 
+    /// The segments a path of `count` uploaded waypoints runs from `from`, in order, each from
+    /// its own `t = 0` (the drive enters segment `i + 1` when segment `i`'s duration is over):
+    /// what a host simulates to compare a recording of the path (`flexarm compare`).
+    pub fn path_segments(
+        &self,
+        from: Vector2<T>,
+        count: usize,
+    ) -> impl Iterator<Item = Cubic<T>> + '_ {
+        (0..count).map(move |i| self.cubic(from, i, count))
+    }
+
     /// Path segment `i` of `count` from `from` (see [`Waypoint`]). Runs in the motor loop
     /// ([`Self::advance`]): no indexing that could panic. One copy in a firmware's flash.
     #[inline(never)]

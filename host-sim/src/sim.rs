@@ -754,6 +754,34 @@ pub fn simulate(
     traj: &JointTrajectory<f32>,
     record: bool,
 ) -> Result<(Summary, Vec<Sample>), SimError> {
+    simulate_segments(cfg, &[(0.0, *traj)], record)
+}
+
+/// [`simulate`] of a move made of segments, as the drive runs a waypoint path
+/// (`flexarm_core::drive::Drive::path_segments`): `(start [s], trajectory)` in order, the first
+/// at 0, each sampled from its own `t = 0` once the run's time has reached its start (the last
+/// one holds its end after its duration).
+pub fn simulate_segments(
+    cfg: &SimConfig,
+    segments: &[(f64, JointTrajectory<f32>)],
+    record: bool,
+) -> Result<(Summary, Vec<Sample>), SimError> {
+    let Some(&(_, first)) = segments.first() else {
+        return Err(SimError::Input {
+            key: "trajectory",
+            msg: "no segment to run".into(),
+        });
+    };
+    let traj = &first;
+    // The segment at `t` and the time into it.
+    let at = |t: f64| {
+        let i = segments
+            .partition_point(|(start, _)| *start <= t)
+            .saturating_sub(1);
+        let (start, seg) = segments[i];
+        (i, seg, t - start)
+    };
+    let mut current = 0;
     cfg.validate(traj)?;
     let (motor_div, piezo_div) = cfg.rates.divisors()?;
     let dt = cfg.rates.plant_dt;
@@ -794,7 +822,14 @@ pub fn simulate(
         }
         if k % motor_div == 0 {
             let x = plant.state();
-            let target = traj.sample(t as f32);
+            let (i, seg, local) = at(t);
+            if i != current {
+                current = i;
+                if let Loop::Observer(c) = &mut ctrl {
+                    c.trajectory = seg;
+                }
+            }
+            let target = seg.sample(local as f32);
             let (seen, seen_v_f) = if cfg.sensors.delay {
                 held.replace((x, v_f)).unwrap_or((x, v_f))
             } else {
@@ -804,7 +839,7 @@ pub fn simulate(
                 Loop::Full { motor, .. } => {
                     let out = motor
                         .step(
-                            t as f32,
+                            local as f32,
                             &seen.q.cast::<f32>(),
                             &seen.qd.cast::<f32>(),
                             &target,
@@ -825,7 +860,7 @@ pub fn simulate(
                         theta: Vector2::new(s.angle(seen.q.x) as f32, s.angle(seen.q.y) as f32),
                         v_f: seen_v_f as f32,
                     };
-                    let rep = c.motor_step(t as f32, Some(&y));
+                    let rep = c.motor_step(local as f32, Some(&y));
                     if let Some(fault) = c.fault() {
                         return Err(SimError::Fault { fault, t });
                     }

@@ -71,3 +71,64 @@ fn a_trace_csv_reads_back_and_a_damaged_one_is_named() {
     assert!(e.contains("trace_io.csv:1: not a flexarm trace"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A waypoint path simulated segment by segment, as the drive runs it
+/// (`Drive::path_segments`, `simulate_segments`): the reference passes through every waypoint at
+/// its time, has no jump where segments meet, and the arm follows.
+#[test]
+fn a_path_runs_segment_by_segment_through_its_waypoints() {
+    use flexarm_core::Vector2;
+    use flexarm_core::control::motor::MotorLaw;
+    use flexarm_core::controller::Controller;
+    use flexarm_core::drive::{Drive, MoveLimits, Waypoint};
+    use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
+    use flexarm_core::time::Ticks;
+    use flexarm_sim::sim::simulate_segments;
+    let mut ctrl = Controller::<f32>::paper(
+        MotorLaw::Tracking,
+        JointTrajectory::Hold(Vector2::zeros()),
+        1e-4,
+        1e-3,
+        gain(&GAIN_1KHZ),
+    );
+    let mut drive = Drive::new(&mut ctrl, 1000, Ticks(0), MoveLimits::default());
+    let points = [(0.3, 0.2, 1.0), (0.5, -0.1, 1.0), (0.2, 0.0, 1.5)].map(|(a, b, dt)| Waypoint {
+        theta: Vector2::new(a, b),
+        dt,
+    });
+    drive.load_waypoints(&ctrl, 0, &points).unwrap();
+    let mut start = 0.0;
+    let segments: Vec<_> = drive
+        .path_segments(Vector2::zeros(), points.len())
+        .map(|c| {
+            let s = (start, JointTrajectory::Cubic(c));
+            start += f64::from(c.duration);
+            s
+        })
+        .collect();
+    let cfg = SimConfig {
+        duration: 4.0,
+        ..SimConfig::default()
+    };
+    let (summary, trace) = simulate_segments(&cfg, &segments, true).unwrap();
+    let mut at = 0.0;
+    for w in &points {
+        at += f64::from(w.dt);
+        let s = trace
+            .iter()
+            .min_by(|a, b| (a.t - at).abs().total_cmp(&(b.t - at).abs()))
+            .unwrap();
+        let gap = (s.q_d - w.theta.cast::<f64>()).abs().max();
+        assert!(
+            gap < 1e-5,
+            "at {at} s the reference is {gap:.1e} rad from its waypoint"
+        );
+    }
+    // Continuous: no step of the reference larger than the path's speed allows in a period.
+    let jump = trace
+        .windows(2)
+        .map(|w| (w[1].q_d - w[0].q_d).abs().max())
+        .fold(0.0, f64::max);
+    assert!(jump < 2e-3, "largest reference step {jump:.1e} rad");
+    assert!(summary.max_error < 5e-3, "{}", summary.max_error);
+}

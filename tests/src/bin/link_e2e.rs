@@ -246,7 +246,8 @@ const PATH: [(f32, f32, f32); 12] = [
 ];
 
 /// The largest |θ̂ − θ_d| of [`PATH`] from rest at (0, 0) in the core's closed loop on the host, as
-/// the QEMU board runs it: the paper's controller with the 100 Hz observer, `k_c` = 3.162 s,
+/// the QEMU board runs it: the paper's controller with the 100 Hz observer and gains
+/// (`Gains::default_for(100)`), `k_c` = 3.162 s,
 /// the drive, and the core's simulated arm with the QEMU board's sensors, stepped every 1 ms.
 fn path_simulation() -> Result<f32, String> {
     use flexarm_core::control::motor::MotorLaw;
@@ -263,6 +264,9 @@ fn path_simulation() -> Result<f32, String> {
         1e-2,
         gain(&GAIN_100HZ),
     );
+    // The QEMU board's gains for its 100 Hz loop.
+    let kp = flexarm_core::params::Gains::<f32>::default_for(100).kp;
+    (ctrl.motor.gains.kp.x, ctrl.motor.gains.kp.y) = (kp.x, kp.y);
     let mut tuning = flexarm_core::tuning::Tuning {
         piezo: flexarm_core::control::piezo::PiezoGains::default(),
         piezo_period: 1e-3,
