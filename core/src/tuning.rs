@@ -115,7 +115,11 @@ impl<T: Real> Tuning<T> {
             && limits.v_a_max <= self.v_a_ceiling
             && -limits.v_a_min <= self.v_a_ceiling
             && piezo.cutoff_hz * self.piezo_period < T::c(0.5);
-        if gains.validate().is_err() || limits.validate().is_err() || !law.is_valid() || !within {
+        if gains.validate().is_err()
+            || limits.validate().is_err()
+            || !law.is_valid_or_off()
+            || !within
+        {
             return Err(TuneError::OutOfRange);
         }
         ctrl.motor.gains = gains;

@@ -383,12 +383,17 @@ impl<T: Real> PiezoLaw<T> {
         self.filter.reset();
     }
 
-    /// `true` if the law damps or is off: a stable derivative filter (`|a| < 1`), a folded gain
-    /// that is negative or zero (`b ≤ 0`, i.e. `k_c ≥ 0`; `k_c = 0` is the loop off, `V_a = 0`,
-    /// which bring-up runs until the film's sign is known) and a finite window around 0 V
-    /// (`v_min < 0 < v_max`: 0 V is the safe state). With a positive period this holds exactly
-    /// when the corner is finite and positive and `k_c` finite and not negative.
+    /// `true` if the law damps: a stable derivative filter (`|a| < 1`), a negative folded gain
+    /// (`b < 0`, i.e. `k_c > 0`) and a finite window around 0 V (`v_min < 0 < v_max`: 0 V is
+    /// the safe state). With a positive period this holds exactly when `k_c` and the corner are
+    /// finite and positive. What a controller is built with.
     pub fn is_valid(&self) -> bool {
+        self.filter.b < T::zero() && self.is_valid_or_off()
+    }
+
+    /// [`Self::is_valid`], or the loop off: `k_c = 0` (`b = 0`, `V_a = 0`), which a running
+    /// drive may be set to (`flexarm bringup` runs so until the film's sign is known).
+    pub fn is_valid_or_off(&self) -> bool {
         let f = &self.filter;
         f.a.abs() < T::one()
             && f.b <= T::zero()
