@@ -8,6 +8,7 @@
 
 pub mod actuators;
 pub mod firmware_params;
+pub mod identify;
 pub mod montecarlo;
 pub mod outdir;
 pub mod output;

@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 use flexarm_sim::outdir::{OutDir, write_atomic};
-use flexarm_sim::sim::Rates;
+use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource};
 use flexarm_sim::study::{self, Case, Options, Outcome};
 use flexarm_sim::truth_plant::TruthSpec;
 use flexarm_sim::{firmware_params, montecarlo, output, scenario, spillover_study};
@@ -79,6 +79,30 @@ enum Command {
         /// Replace files of the same names that no flexarm command wrote.
         #[arg(long)]
         force: bool,
+    },
+    /// Identification of an arm from measured data (docs/identification.md). `friction`: each
+    /// joint's Coulomb and viscous friction from constant-speed moves, on the simulator's plant.
+    Identify {
+        /// The experiment: `friction`.
+        #[arg(value_parser = ["friction"])]
+        experiment: String,
+        /// Cruise speeds [rad/s], both directions each.
+        #[arg(long, value_delimiter = ',', default_value = "0.1,0.2,0.3,0.5")]
+        speeds: Vec<f64>,
+        /// Seconds of each cruise averaged.
+        #[arg(long, default_value_t = 2.0)]
+        cruise: f64,
+        /// Output folder.
+        #[arg(long, default_value = "out/identify")]
+        out: PathBuf,
+        /// Skip the figure.
+        #[arg(long)]
+        no_plots: bool,
+        /// Replace files of the same names that no flexarm command wrote.
+        #[arg(long)]
+        force: bool,
+        #[command(flatten)]
+        plant: PlantArgs,
     },
     /// Monte Carlo: the plant's masses, inertias, frequencies and damping perturbed by ±10 % and ±20 %.
     Montecarlo {
@@ -377,6 +401,73 @@ fn main_result(cli: Cli) -> Result<()> {
             }
             let files = dir.commit()?;
             println!("{md}\nWrote {}: {}.", out.display(), files.join(", "));
+            Ok(())
+        }
+        Command::Identify {
+            experiment: _,
+            speeds,
+            cruise,
+            out,
+            no_plots,
+            force,
+            plant,
+        } => {
+            use flexarm_sim::identify;
+            let truth = plant.truth()?;
+            let mut cfg = SimConfig {
+                state: StateSource::Observer,
+                sensors: Sensors::realistic(),
+                ..SimConfig::default()
+            };
+            if let Some(t) = truth {
+                cfg = cfg.with_truth(t).map_err(|e| e.to_string())?;
+            }
+            let held = nalgebra::Vector2::new(-1.2, -1.2);
+            let cruises = identify::friction_experiment(&cfg, held, &speeds, cruise)
+                .map_err(|e| e.to_string())?;
+            let fit = |j: usize| {
+                let mine: Vec<_> = cruises.iter().copied().filter(|c| c.joint == j).collect();
+                identify::fit(&mine).map_err(|e| e.to_string())
+            };
+            let fits = [fit(0)?, fit(1)?];
+            let known = truth.map(|t| [0, 1].map(|j| (t.motors[j].coulomb, t.motors[j].viscous)));
+            let table = identify::friction_report(&fits, known);
+            let plant_name = match truth {
+                Some(t) => format!(
+                    "the truth plant (link 2 with {} modes, geared drives with friction, a realistic board)",
+                    t.modes
+                ),
+                None => "the controller's own model (no friction: the fit should find none)".into(),
+            };
+            let report = format!(
+                "# Joint friction
+
+Identified on {plant_name}: each joint at {} rad/s, both ways, {cruise} s of cruise averaged after {} s of settling (`cargo sim identify friction`, docs/identification.md).
+
+{table}",
+                speeds.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", "),
+                identify::SETTLE
+            );
+            let dir = OutDir::open(&out, "identify", force)?;
+            let staged = dir.staging();
+            let write = |name: &str, text: &str| {
+                std::fs::write(staged.join(name), text)
+                    .map_err(|e| format!("cannot write {name}: {e}"))
+            };
+            write("friction.md", &report)?;
+            write("friction.csv", &identify::cruises_csv(&cruises))?;
+            write("friction.toml", &identify::plant_fragment(&fits))?;
+            if !no_plots {
+                identify::friction_figure(&staged.join("friction.svg"), &cruises, &fits)
+                    .map_err(|e| format!("cannot draw the figure: {e}"))?;
+            }
+            let files = dir.commit()?;
+            println!(
+                "{report}
+Wrote {}: {}.",
+                out.display(),
+                files.join(", ")
+            );
             Ok(())
         }
         Command::Montecarlo {
