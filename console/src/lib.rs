@@ -13,6 +13,7 @@
 
 pub mod bringup;
 pub mod client;
+pub mod identify;
 pub mod interrupt;
 pub mod live;
 pub mod params;

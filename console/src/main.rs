@@ -138,6 +138,25 @@ enum Action {
         #[arg(long, default_value_t = 40.0, allow_negative_numbers = true)]
         bias: f32,
     },
+    /// Identification (docs/identification.md). `friction`: each joint's Coulomb and viscous
+    /// friction from constant-speed moves out and back from where the arm holds; writes
+    /// friction.md, .csv, .svg and a [plant] fragment the simulator reads into OUT.
+    Identify {
+        /// The experiment: `friction`.
+        #[arg(value_parser = ["friction"])]
+        experiment: String,
+        /// The output folder.
+        out: PathBuf,
+        /// Cruise speeds [rad/s], both directions each.
+        #[arg(long, value_delimiter = ',', default_value = "0.1,0.2,0.3,0.5")]
+        speeds: Vec<f64>,
+        /// Seconds of each cruise averaged.
+        #[arg(long, default_value_t = 2.0)]
+        cruise: f64,
+        /// Replace files of the same name that no flexarm command wrote.
+        #[arg(long)]
+        force: bool,
+    },
     /// Test builds (the QEMU `link-session` firmware): assert (`on`) or release (`off`) the
     /// simulated amplifiers' fault line.
     #[command(hide = true)]
@@ -430,6 +449,38 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             println!("live: {}", view.message);
         }
         Action::Faults { out, force } => faults(&mut c, &out, force)?,
+        Action::Identify {
+            experiment: _,
+            out,
+            speeds,
+            cruise,
+            force,
+        } => {
+            let (cruises, fits) = flexarm_console::identify::friction(&mut c, &speeds, cruise)?;
+            let dir = flexarm_sim::outdir::OutDir::open(&out, "identify", force)
+                .map_err(ConsoleError::Io)?;
+            let heading = format!(
+                "Identified on {} over the link: each joint at {} rad/s, both ways, {cruise} s of cruise averaged (`flexarm identify friction`, docs/identification.md).",
+                c.hello.build,
+                speeds
+                    .iter()
+                    .map(|v| v.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            let report = flexarm_sim::identify::save_friction(
+                dir.staging(),
+                &heading,
+                &cruises,
+                &fits,
+                None,
+                true,
+            )
+            .map_err(ConsoleError::Io)?;
+            let files = dir.commit().map_err(ConsoleError::Io)?;
+            print!("{report}");
+            println!("identify: wrote {} in {}", files.join(", "), out.display());
+        }
         Action::Bringup {
             torque,
             nudge,

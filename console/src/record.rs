@@ -83,7 +83,11 @@ pub struct Recording {
 }
 
 /// The frame's values as a sample at `t` [s] (all channels, in [`Channels`] order).
-fn sample(f: &Telemetry, t: f64, model: &flexarm_core::model::Model<f64>) -> Option<Sample> {
+pub(crate) fn sample(
+    f: &Telemetry,
+    t: f64,
+    model: &flexarm_core::model::Model<f64>,
+) -> Option<Sample> {
     let v: Vec<f64> = f.values.iter().map(|&x| f64::from(x)).collect();
     let [e1, e2, th1, th2, d1, d2, tau1, tau2, v_a, v_f, ..] = v[..] else {
         return None;

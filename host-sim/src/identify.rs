@@ -79,18 +79,33 @@ pub struct Friction {
 /// One move of the experiment and its cruise window (from the move's start) [s].
 pub type Leg = (JointTrajectory<f32>, (f64, f64));
 
+/// One move as a drive takes it: a trapezoid from where the arm holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LegSpec {
+    /// Where it starts [rad].
+    pub start: Vector2<f64>,
+    /// Where it ends [rad].
+    pub target: Vector2<f64>,
+    /// Its duration [s].
+    pub time: f64,
+    /// Its ramps [s].
+    pub ramp: f64,
+    /// The cruise averaged, from the move's start [s].
+    pub window: (f64, f64),
+}
+
 /// Joint ranges the experiment's moves stay in [rad] (the drive's move limits).
 const RANGE: [f64; 2] = [3.0, 2.7];
 
 /// The out-and-back trapezoids of joint `joint` from `held` at cruise speed `speed` [rad/s]
-/// with `cruise` seconds averaged, and the cruise window of each (from the move's start) [s];
-/// an error when the cruise is under half a second or the move leaves the joint's range.
-pub fn moves(
+/// with `cruise` seconds averaged; an error when the cruise is under half a second or the move
+/// leaves the joint's range.
+pub fn legs(
     held: Vector2<f64>,
     joint: usize,
     speed: f64,
     cruise: f64,
-) -> Result<[Leg; 2], IdentifyError> {
+) -> Result<[LegSpec; 2], IdentifyError> {
     if !(cruise.is_finite() && cruise >= 0.5) {
         return Err(IdentifyError::Data(format!(
             "a cruise of {cruise} s: give at least 0.5 s (the link's first mode must average out)"
@@ -109,21 +124,37 @@ pub fn moves(
             RANGE[joint]
         )));
     }
-    let profile = Profile::new(time as f32, ramp as f32)
-        .map_err(|e| IdentifyError::Data(format!("the move at {speed} rad/s: {e:?}")))?;
-    let mut amplitude = Vector2::<f32>::zeros();
-    amplitude[joint] = distance as f32;
-    let leg = |start: Vector2<f64>, amplitude: Vector2<f32>| {
-        let t = Trapezoid {
-            start: start.cast::<f32>(),
-            amplitude,
-            profile,
-        };
-        (JointTrajectory::Trapezoid(t), window)
-    };
     let mut out = held;
     out[joint] += distance;
-    Ok([leg(held, amplitude), leg(out, -amplitude)])
+    let leg = |start, target| LegSpec {
+        start,
+        target,
+        time,
+        ramp,
+        window,
+    };
+    Ok([leg(held, out), leg(out, held)])
+}
+
+/// [`legs`] as the trajectories the drive runs, with their cruise windows.
+pub fn moves(
+    held: Vector2<f64>,
+    joint: usize,
+    speed: f64,
+    cruise: f64,
+) -> Result<[Leg; 2], IdentifyError> {
+    let [out, back] = legs(held, joint, speed, cruise)?;
+    let leg = |l: LegSpec| -> Result<Leg, IdentifyError> {
+        let profile = Profile::new(l.time as f32, l.ramp as f32)
+            .map_err(|e| IdentifyError::Data(format!("the move at {speed} rad/s: {e:?}")))?;
+        let t = Trapezoid {
+            start: l.start.cast::<f32>(),
+            amplitude: (l.target - l.start).cast::<f32>(),
+            profile,
+        };
+        Ok((JointTrajectory::Trapezoid(t), l.window))
+    };
+    Ok([leg(out)?, leg(back)?])
 }
 
 /// The cruise of `joint` in `trace` over `window` [s]: mean measured speed (from the angle's
@@ -351,4 +382,41 @@ pub fn friction_figure(
     }
     root.present()?;
     Ok(())
+}
+
+/// Writes the friction identification's files into `dir` (an output folder's staging area):
+/// `friction.md` (`heading` above the table), `.csv`, `.toml` and, with `plots`, `.svg`.
+/// Returns the report.
+pub fn save_friction(
+    dir: &std::path::Path,
+    heading: &str,
+    cruises: &[Cruise],
+    fits: &[Friction; 2],
+    truth: Option<[(f64, f64); 2]>,
+    plots: bool,
+) -> Result<String, String> {
+    let report = format!(
+        "# Joint friction\n\n{heading}\n\n{}",
+        friction_report(fits, truth)
+    );
+    let write = |name: &str, text: &str| {
+        std::fs::write(dir.join(name), text).map_err(|e| format!("cannot write {name}: {e}"))
+    };
+    write("friction.md", &report)?;
+    write("friction.csv", &cruises_csv(cruises))?;
+    write("friction.toml", &plant_fragment(fits))?;
+    if plots {
+        friction_figure(&dir.join("friction.svg"), cruises, fits)
+            .map_err(|e| format!("cannot draw the figure: {e}"))?;
+    }
+    Ok(report)
+}
+
+/// Each joint's fit over its cruises.
+pub fn fit_joints(cruises: &[Cruise]) -> Result<[Friction; 2], IdentifyError> {
+    let fit_joint = |j: usize| {
+        let mine: Vec<Cruise> = cruises.iter().copied().filter(|c| c.joint == j).collect();
+        fit(&mine)
+    };
+    Ok([fit_joint(0)?, fit_joint(1)?])
 }

@@ -425,13 +425,8 @@ fn main_result(cli: Cli) -> Result<()> {
             let held = nalgebra::Vector2::new(-1.2, -1.2);
             let cruises = identify::friction_experiment(&cfg, held, &speeds, cruise)
                 .map_err(|e| e.to_string())?;
-            let fit = |j: usize| {
-                let mine: Vec<_> = cruises.iter().copied().filter(|c| c.joint == j).collect();
-                identify::fit(&mine).map_err(|e| e.to_string())
-            };
-            let fits = [fit(0)?, fit(1)?];
+            let fits = identify::fit_joints(&cruises).map_err(|e| e.to_string())?;
             let known = truth.map(|t| [0, 1].map(|j| (t.motors[j].coulomb, t.motors[j].viscous)));
-            let table = identify::friction_report(&fits, known);
             let plant_name = match truth {
                 Some(t) => format!(
                     "the truth plant (link 2 with {} modes, geared drives with friction, a realistic board)",
@@ -439,28 +434,24 @@ fn main_result(cli: Cli) -> Result<()> {
                 ),
                 None => "the controller's own model (no friction: the fit should find none)".into(),
             };
-            let report = format!(
-                "# Joint friction
-
-Identified on {plant_name}: each joint at {} rad/s, both ways, {cruise} s of cruise averaged after {} s of settling (`cargo sim identify friction`, docs/identification.md).
-
-{table}",
-                speeds.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", "),
+            let heading = format!(
+                "Identified on {plant_name}: each joint at {} rad/s, both ways, {cruise} s of cruise averaged after {} s of settling (`cargo sim identify friction`, docs/identification.md).",
+                speeds
+                    .iter()
+                    .map(|v| v.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
                 identify::SETTLE
             );
             let dir = OutDir::open(&out, "identify", force)?;
-            let staged = dir.staging();
-            let write = |name: &str, text: &str| {
-                std::fs::write(staged.join(name), text)
-                    .map_err(|e| format!("cannot write {name}: {e}"))
-            };
-            write("friction.md", &report)?;
-            write("friction.csv", &identify::cruises_csv(&cruises))?;
-            write("friction.toml", &identify::plant_fragment(&fits))?;
-            if !no_plots {
-                identify::friction_figure(&staged.join("friction.svg"), &cruises, &fits)
-                    .map_err(|e| format!("cannot draw the figure: {e}"))?;
-            }
+            let report = identify::save_friction(
+                dir.staging(),
+                &heading,
+                &cruises,
+                &fits,
+                known,
+                !no_plots,
+            )?;
             let files = dir.commit()?;
             println!(
                 "{report}

@@ -109,3 +109,31 @@ fn the_identified_friction_is_a_plant_the_simulator_reads() {
         [0.0192, 0.0195]
     );
 }
+
+/// On the controller's own model, which has no friction, the method finds almost none: its own
+/// bias, within a tenth of the truth plant's friction (the validation's bound).
+#[test]
+fn no_friction_is_found_where_there_is_none() {
+    let cfg = SimConfig {
+        state: StateSource::Observer,
+        sensors: Sensors::realistic(),
+        ..SimConfig::default()
+    };
+    let cruises =
+        friction_experiment(&cfg, Vector2::new(-1.2, -1.2), &[0.1, 0.2, 0.3, 0.5], 2.0).unwrap();
+    let fits = flexarm_sim::identify::fit_joints(&cruises).unwrap();
+    let drive = TruthSpec::default().motors[0];
+    for (j, f) in fits.iter().enumerate() {
+        println!(
+            "joint {}: F_c {:+.1e} N·m, F_v {:+.1e} N·m·s/rad",
+            j + 1,
+            f.coulomb,
+            f.viscous
+        );
+        assert!(
+            f.coulomb.abs() < 0.1 * drive.coulomb && f.viscous.abs() < 0.1 * drive.viscous,
+            "joint {}",
+            j + 1
+        );
+    }
+}
