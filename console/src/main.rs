@@ -215,6 +215,7 @@ enum MoveKind {
 }
 
 fn main() -> ExitCode {
+    flexarm_sim::cli::one_line_panics("flexarm");
     // A usage mistake is one line too, and exit status 1 (help and version print as usual).
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,

@@ -413,3 +413,19 @@ fn bringup_refuses_a_faulted_drive_and_bad_settings() {
         "bringup takes --torque in (0, 100] N·m, --nudge in (0, 0.5] rad",
     );
 }
+
+/// A closed stdout (`flexarm … | head` once head has had its lines) ends the tool quietly,
+/// status 141 as SIGPIPE would, not with a panic's trace.
+#[test]
+fn a_closed_stdout_ends_quietly() {
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let o = Process::new(env!("CARGO_BIN_EXE_flexarm"))
+        .args(["get", "list"])
+        .stdout(writer)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(141), "{err}");
+    assert!(err.is_empty(), "{err}");
+}

@@ -7,6 +7,7 @@
 //! robustness study and the spillover study.
 
 pub mod actuators;
+pub mod cli;
 pub mod firmware_params;
 pub mod identify;
 pub mod montecarlo;

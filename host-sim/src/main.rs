@@ -527,6 +527,7 @@ fn refuse_foreign(path: &Path, force: bool, ours: fn(&str) -> bool) -> Result<()
 }
 
 fn main() -> ExitCode {
+    flexarm_sim::cli::one_line_panics("flexarm-sim");
     // Help and version print as usual; a command-line error is one line and exit status 1,
     // like every other bad input.
     let cli = match Cli::try_parse() {
