@@ -457,9 +457,10 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             cruise,
             force,
         } => {
-            let (cruises, fits) = flexarm_console::identify::friction(&mut c, &speeds, cruise)?;
+            // The folder first: a folder the tool may not write is named before the arm moves.
             let dir = flexarm_sim::outdir::OutDir::open(&out, "identify", force)
                 .map_err(ConsoleError::Io)?;
+            let (cruises, fits) = flexarm_console::identify::friction(&mut c, &speeds, cruise)?;
             let heading = format!(
                 "Identified on {} over the link: each joint at {} rad/s, both ways, {cruise} s of cruise averaged (`flexarm identify friction`, docs/identification.md).",
                 c.hello.build,
