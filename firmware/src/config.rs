@@ -80,6 +80,13 @@ pub fn motion() -> flexarm_core::motion::MotionLimits<f32> {
     flexarm_core::motion::MotionLimits::default_for(MOTOR_HZ)
 }
 
+/// The motor law's gains: the core's (the paper's), with the joints' `K_p` slowed for a slow
+/// motor loop (`Gains::default_for`: the QEMU board's 100 Hz).
+#[inline(always)]
+pub fn motor_gains() -> flexarm_core::params::Gains<f32> {
+    flexarm_core::params::Gains::default_for(MOTOR_HZ)
+}
+
 /// The piezo loop's gains: `k_c` [s] from `firmware/piezo.toml`, the core's filter corner.
 pub fn piezo_gains() -> PiezoGains<f32> {
     PiezoGains {

@@ -517,10 +517,12 @@ fn hello() -> Hello {
     }
 }
 
-/// FNV-1a over the bits of the running parameters: the patch, the piezo gains, the limits and
-/// the observer gain table. Two firmwares with the same hash run the same controller numbers.
+/// FNV-1a over the bits of the parameters the firmware boots with: the patch, the motor law's
+/// gains, the piezo gains, the limits and the observer gain table. Two firmwares with the same
+/// hash boot with the same controller numbers (a `Set` over the link changes them afterwards).
 pub fn params_hash() -> u32 {
     let p = crate::config::patch();
+    let m = crate::config::motor_gains();
     let g = crate::config::piezo_gains();
     let l = crate::config::limits();
     let mut h: u32 = 0x811c_9dc5;
@@ -530,6 +532,18 @@ pub fn params_hash() -> u32 {
         }
     };
     for x in [p.x_a, p.l_a, p.slope_diff.x, p.slope_diff.y, p.k_a, p.k_s] {
+        add(x);
+    }
+    for x in [
+        m.kp.x,
+        m.kp.y,
+        m.lambda.x,
+        m.lambda.y,
+        m.lambda.z,
+        m.lambda.w,
+        m.d_delta.x,
+        m.d_delta.y,
+    ] {
         add(x);
     }
     for x in [

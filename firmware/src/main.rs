@@ -193,7 +193,7 @@ mod app {
             config::limits(),
         );
         // The paper's gains, slowed for a slow motor loop (the QEMU board's 100 Hz).
-        let g = flexarm_core::params::Gains::<f32>::default_for(MOTOR_HZ).kp;
+        let g = config::motor_gains().kp;
         (ctrl.motor.gains.kp.x, ctrl.motor.gains.kp.y) = (g.x, g.y);
         // The first cause is kept: a clock failure explains a watchdog reset, not the reverse.
         #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
