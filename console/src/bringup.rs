@@ -321,7 +321,7 @@ fn interrupted(c: &mut Client) -> Result<(), ConsoleError> {
     if interrupt::requested() {
         interrupt::stop_arm(c)?;
         return Err(ConsoleError::Interrupted(
-            "bringup: the arm was stopped; the torque limits and k_c are the bring-up's (`flexarm get tau_max0`, `get kc`)".into(),
+            "bringup: the arm was stopped (Ctrl-C); the torque limits and k_c are written back".into(),
         ));
     }
     Ok(())
@@ -337,22 +337,7 @@ fn follow(
 ) -> Result<(Vec<Telemetry>, Status), ConsoleError> {
     c.done(what, Command::Move(m))?;
     let mut frames = Vec::new();
-    let start = Instant::now();
-    let ended = loop {
-        interrupted(c)?;
-        c.pump(Duration::from_millis(20))?;
-        let s = c.status()?;
-        frames.extend(c.take_telemetry());
-        if !matches!(s.mode, Mode::Moving | Mode::Stopping) {
-            break s;
-        }
-        if start.elapsed() > Duration::from_secs(30) {
-            c.ask(Command::Estop)?;
-            return Err(ConsoleError::Timeout(format!(
-                "{what} to end (emergency stop sent)"
-            )));
-        }
-    };
+    let ended = interrupt::follow_move(c, what, &mut frames, Duration::from_secs(30))?;
     if ended.mode != Mode::Fault {
         frames.extend(collect(c, 0.25, motor_hz)?);
     }

@@ -55,7 +55,16 @@ pub fn friction(
                 };
                 c.done(&what, Command::Move(m))?;
                 frames.clear();
-                follow(c, &what, &mut frames)?;
+                let ended = interrupt::follow_move(c, &what, &mut frames, Duration::from_secs(60))?;
+                if ended.mode != Mode::Armed {
+                    return Err(ConsoleError::Unexpected(format!(
+                        "{what}: the move ended in {}",
+                        ended.fault.map_or("the drive disarmed".into(), |f| format!(
+                            "fault {f} ({})",
+                            fault_name(f)
+                        ))
+                    )));
+                }
                 // The move's start: the last frame before the reference leaves the start pose.
                 let reference = |f: &Telemetry| {
                     let v = &f.values;
@@ -100,35 +109,6 @@ fn wait_frames(c: &mut Client) -> Result<Vec<Telemetry>, ConsoleError> {
         }
         if start.elapsed() > Duration::from_secs(3) {
             return Err(ConsoleError::Timeout("the first telemetry frame".into()));
-        }
-    }
-}
-
-/// Follows the running move to its end, keeping its frames; a fault ends the experiment, and
-/// Ctrl-C stops the arm first.
-fn follow(c: &mut Client, what: &str, frames: &mut Vec<Telemetry>) -> Result<(), ConsoleError> {
-    loop {
-        if interrupt::requested() {
-            interrupt::stop_arm(c)?;
-            return Err(ConsoleError::Interrupted(format!(
-                "identify: {what}: the arm was stopped; nothing was written"
-            )));
-        }
-        c.pump(Duration::from_millis(20))?;
-        let s = c.status()?;
-        frames.extend(c.take_telemetry());
-        match s.mode {
-            Mode::Moving | Mode::Stopping => {}
-            Mode::Armed => return Ok(()),
-            _ => {
-                return Err(ConsoleError::Unexpected(format!(
-                    "{what}: the move ended in {}",
-                    s.fault.map_or("the drive disarmed".into(), |f| format!(
-                        "fault {f} ({})",
-                        fault_name(f)
-                    ))
-                )));
-            }
         }
     }
 }

@@ -4,7 +4,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use flexarm_link::msg::Mode;
+use flexarm_link::msg::{Mode, Status, Telemetry};
 use flexarm_link::{Command, Reply};
 
 use crate::client::{Client, ConsoleError};
@@ -39,5 +39,38 @@ pub fn stop_arm(c: &mut Client) -> Result<(), ConsoleError> {
             ));
         }
         std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Follows the running move until the drive leaves moving and stopping, keeping the telemetry
+/// in `frames`; returns the status it ended in. Ctrl-C stops the arm and ends it with an error
+/// saying `what` was cut short; after `limit`, an emergency stop.
+pub fn follow_move(
+    c: &mut Client,
+    what: &str,
+    frames: &mut Vec<Telemetry>,
+    limit: Duration,
+) -> Result<Status, ConsoleError> {
+    let start = Instant::now();
+    loop {
+        if requested() {
+            stop_arm(c)?;
+            return Err(ConsoleError::Interrupted(format!(
+                "{what}: the arm was stopped short (Ctrl-C)"
+            )));
+        }
+        c.pump(Duration::from_millis(20))?;
+        let s = c.status()?;
+        frames.extend(c.take_telemetry());
+        if !matches!(s.mode, Mode::Moving | Mode::Stopping) {
+            return Ok(s);
+        }
+        if start.elapsed() > limit {
+            c.ask(Command::Estop)?;
+            return Err(ConsoleError::Timeout(format!(
+                "{what} to end within {} s (emergency stop sent)",
+                limit.as_secs()
+            )));
+        }
     }
 }
