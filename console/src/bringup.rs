@@ -321,7 +321,8 @@ fn interrupted(c: &mut Client) -> Result<(), ConsoleError> {
     if interrupt::requested() {
         interrupt::stop_arm(c)?;
         return Err(ConsoleError::Interrupted(
-            "bringup: the arm was stopped (Ctrl-C); the torque limits and k_c are written back".into(),
+            "bringup: the arm was stopped (Ctrl-C); the torque limits and k_c are written back"
+                .into(),
         ));
     }
     Ok(())
