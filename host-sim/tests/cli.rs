@@ -591,3 +591,57 @@ fn the_truth_plant_from_the_command_line() {
     assert!(ok, "{stderr}");
     assert!(stdout.contains("| trapezoid |"), "{stdout}");
 }
+
+/// `identify friction` from the command line: its four files, the report's table; settings
+/// that cannot identify anything are one line, and nothing is written.
+#[test]
+fn identify_friction_writes_its_files_and_refuses_bad_settings() {
+    let out = fresh_dir("identify");
+    let o = out.to_str().unwrap();
+    let (ok, stdout, stderr) = sim(&[
+        "identify", "friction", "--speeds", "0.2,0.5", "--cruise", "0.5", "--out", o,
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("| joint | F_c [N·m] |"), "{stdout}");
+    assert_eq!(
+        names_in(&out),
+        [
+            ".flexarm-outputs",
+            "friction.csv",
+            "friction.md",
+            "friction.svg",
+            "friction.toml"
+        ]
+    );
+    // Four cruises per joint, both ways at each speed.
+    let csv = std::fs::read_to_string(out.join("friction.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 8, "{csv}");
+    for (args, needle) in [
+        (
+            ["--speeds", "0.2,-1", "--cruise", "2"],
+            "each in (0, 3] rad/s",
+        ),
+        (
+            ["--speeds", "0.2,0.5", "--cruise", "0.1"],
+            "give at least 0.5 s",
+        ),
+        (
+            ["--speeds", "0.2,0.21", "--cruise", "0.5"],
+            "cannot be told apart",
+        ),
+    ] {
+        let bad = fresh_dir("identify-bad");
+        let (ok, _, stderr) = sim(&[
+            &["identify", "friction", "--out", bad.to_str().unwrap()][..],
+            &args[..],
+        ]
+        .concat());
+        assert!(!ok && stderr.lines().count() == 1, "{stderr}");
+        assert!(stderr.contains(needle), "{stderr}");
+        assert!(
+            !bad.exists() || names_in(&bad).is_empty(),
+            "wrote {:?}",
+            names_in(&bad)
+        );
+    }
+}
