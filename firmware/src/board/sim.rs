@@ -117,6 +117,11 @@ impl InputPin for SimPin {
 /// Time constant of the joints' brakes while the amplifiers are off [s].
 const BRAKE_TAU: f32 = 0.05;
 
+/// Clock counts in one piezo period (`crate::clock`: 1 ns each under QEMU).
+const PIEZO_PERIOD_COUNTS: u32 = crate::clock::HZ / crate::config::PIEZO_HZ;
+/// The most piezo periods one tick catches up (see [`SimBoard::tick`]).
+const MAX_CATCH_UP: u32 = 20;
+
 /// The simulated arm and its lines.
 pub struct SimBoard {
     /// The plant and its sensors.
@@ -135,6 +140,8 @@ pub struct SimBoard {
     /// Joint 2's reading once frozen (`inject-frozen-encoder`).
     #[cfg_attr(not(feature = "inject-frozen-encoder"), allow(dead_code))]
     frozen: Option<f32>,
+    /// The clock at the last tick.
+    last_tick: Option<u32>,
 }
 
 impl SimBoard {
@@ -149,11 +156,29 @@ impl SimBoard {
             run: crate::verdict::RunCheck::default(),
             steps: 0,
             frozen: None,
+            last_tick: None,
         }
     }
 }
 
 impl SimBoard {
+    /// One plant step (one copy in flash).
+    #[inline(never)]
+    fn step_plant(&mut self) {
+        self.steps = self.steps.saturating_add(1);
+        if !self.arm.step(self.dt) {
+            self.diverged = true;
+        }
+        // With the amplifiers off the joints brake, as geared drives with holding brakes do:
+        // their speeds decay with a 50 ms time constant, so a disarmed or faulted arm comes to
+        // rest instead of coasting forever on the model's frictionless joints.
+        if !self.arm.enabled() {
+            let keep = 1.0 - self.dt / BRAKE_TAU;
+            self.arm.x.qd.x *= keep;
+            self.arm.x.qd.y *= keep;
+        }
+    }
+
     /// Asserts (`true`) or releases the simulated amplifiers' fault line (the link-session
     /// build's test command).
     pub fn inject_amplifier_fault(&mut self, asserted: bool) {
@@ -217,18 +242,19 @@ impl Board for SimBoard {
     fn motor_period(&mut self, t: f32) {
         self.run.observe(&self.arm, self.diverged, t);
     }
+    /// One plant step per piezo period that has passed since the last tick: one, except when
+    /// QEMU's real-time mode (`-icount sleep=on`: `scripts/qemu-serve`, the link's flood
+    /// session) drops timer interrupts under the host's load, which left the arm standing still
+    /// for up to half of the board's time (426 piezo periods in a second of 1000). Under
+    /// `sleep=off` a period is 1.03 of its nominal length (docs/firmware.md), which rounds to one.
     fn tick(&mut self) {
-        self.steps = self.steps.saturating_add(1);
-        if !self.arm.step(self.dt) {
-            self.diverged = true;
-        }
-        // With the amplifiers off the joints brake, as geared drives with holding brakes do:
-        // their speeds decay with a 50 ms time constant, so a disarmed or faulted arm comes to
-        // rest instead of coasting forever on the model's frictionless joints.
-        if !self.arm.enabled() {
-            let keep = 1.0 - self.dt / BRAKE_TAU;
-            self.arm.x.qd.x *= keep;
-            self.arm.x.qd.y *= keep;
+        let now = crate::clock::now();
+        let periods = self.last_tick.map_or(1, |last| {
+            (now.wrapping_sub(last) + PIEZO_PERIOD_COUNTS / 2) / PIEZO_PERIOD_COUNTS
+        });
+        self.last_tick = Some(now);
+        for _ in 0..periods.clamp(1, MAX_CATCH_UP) {
+            self.step_plant();
         }
     }
 }
