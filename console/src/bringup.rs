@@ -33,7 +33,7 @@
 //! state, and `clear` is the operator's once the cause is fixed). Angles in rad, torques in N·m,
 //! voltages in V, times in s.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use flexarm_core::Vector4;
 use flexarm_core::control::piezo::PiezoPatch;
@@ -41,6 +41,7 @@ use flexarm_link::Command;
 use flexarm_link::msg::{Mode, Move, Param, Status, Telemetry};
 
 use crate::client::{Client, ConsoleError};
+use crate::record::{Values, values};
 use crate::{fault_name, interrupt};
 
 /// The bring-up's settings.
@@ -223,8 +224,7 @@ pub fn run(c: &mut Client, o: &Options) -> Result<Report, ConsoleError> {
     }
     let was_armed = s.mode == Mode::Armed;
     c.subscribe_fastest(1)?;
-    let motor_hz = f64::from(c.hello.motor_hz.max(1));
-    let frames = collect(c, 0.5, motor_hz)?;
+    let frames = interrupt::collect(c, 0.5)?;
     let s = c.status()?;
     if !loads(&mut r, &frames, &s) {
         return finish(c, r, None, was_armed);
@@ -236,7 +236,7 @@ pub fn run(c: &mut Client, o: &Options) -> Result<Report, ConsoleError> {
     c.set(Param::TauMax(0), o.torque.min(saved.tau_max[0]))?;
     c.set(Param::TauMax(1), o.torque.min(saved.tau_max[1]))?;
     c.set(Param::Kc, 0.0)?;
-    let outcome = experiments(c, o, &mut r, motor_hz);
+    let outcome = experiments(c, o, &mut r);
     // The experiments' error first; the restore's only when they had none.
     let restored = finish(c, r, Some(saved), was_armed);
     outcome.and(restored)
@@ -249,22 +249,17 @@ struct Saved {
 }
 
 /// The encoder and film checks (the drive armed from here on).
-fn experiments(
-    c: &mut Client,
-    o: &Options,
-    r: &mut Report,
-    motor_hz: f64,
-) -> Result<(), ConsoleError> {
+fn experiments(c: &mut Client, o: &Options, r: &mut Report) -> Result<(), ConsoleError> {
     let model = crate::record::paper_model();
     if c.status()?.mode == Mode::Disarmed {
         c.done("arm", Command::Arm)?;
     }
     for joint in 0..2 {
-        if !encoder(c, o, r, joint, motor_hz, &model)? {
+        if !encoder(c, o, r, joint, &model)? {
             return Ok(());
         }
     }
-    film(c, o, r, motor_hz, &model)?;
+    film(c, o, r, &model)?;
     Ok(())
 }
 
@@ -294,81 +289,16 @@ fn finish(
     Ok(r)
 }
 
-/// Telemetry for `seconds` of the firmware's time (its ticks), the line kept busy.
-fn collect(c: &mut Client, seconds: f64, motor_hz: f64) -> Result<Vec<Telemetry>, ConsoleError> {
-    let mut frames: Vec<Telemetry> = Vec::new();
-    let periods = (seconds * motor_hz).round() as u64;
-    let deadline = Instant::now() + Duration::from_secs_f64(seconds * 2.0 + 5.0);
-    loop {
-        interrupted(c)?;
-        c.pump(Duration::from_millis(20))?;
-        frames.extend(c.take_telemetry());
-        if let (Some(a), Some(b)) = (frames.first(), frames.last())
-            && b.tick >= a.tick + periods
-        {
-            return Ok(frames);
-        }
-        if Instant::now() > deadline {
-            return Err(ConsoleError::Timeout(format!("{seconds} s of telemetry")));
-        }
-        c.ask(Command::Ping)?;
-        frames.extend(c.take_telemetry());
-    }
-}
-
-/// Ctrl-C: the arm stopped, the bring-up ended.
-fn interrupted(c: &mut Client) -> Result<(), ConsoleError> {
-    if interrupt::requested() {
-        interrupt::stop_arm(c)?;
-        return Err(ConsoleError::Interrupted(
-            "bringup: the arm was stopped (Ctrl-C); the torque limits and k_c are written back"
-                .into(),
-        ));
-    }
-    Ok(())
-}
-
 /// Starts `m` and follows it to its end: the frames meanwhile and a quarter second after, and
 /// the status it ended in.
-fn follow(
-    c: &mut Client,
-    what: &str,
-    m: Move,
-    motor_hz: f64,
-) -> Result<(Vec<Telemetry>, Status), ConsoleError> {
+fn follow(c: &mut Client, what: &str, m: Move) -> Result<(Vec<Telemetry>, Status), ConsoleError> {
     c.done(what, Command::Move(m))?;
     let mut frames = Vec::new();
-    let ended = interrupt::follow_move(c, what, &mut frames, Duration::from_secs(30))?;
+    let ended = interrupt::follow_move(c, what, &mut frames, Some(Duration::from_secs(30)))?;
     if ended.mode != Mode::Fault {
-        frames.extend(collect(c, 0.25, motor_hz)?);
+        frames.extend(interrupt::collect(c, 0.25)?);
     }
     Ok((frames, ended))
-}
-
-/// A frame's values by channel (every channel subscribed): e, θ̂, δ̂, τ, V_a, V_f, loads.
-struct Values<'a>(&'a [f32]);
-
-impl Values<'_> {
-    fn at(&self, i: usize) -> f64 {
-        self.0.get(i).map_or(f64::NAN, |&v| f64::from(v))
-    }
-    fn error(&self, j: usize) -> f64 {
-        self.at(j)
-    }
-    fn theta(&self, j: usize) -> f64 {
-        self.at(2 + j)
-    }
-    fn tau(&self, j: usize) -> f64 {
-        self.at(6 + j)
-    }
-    /// The reference θ_d = θ̂ − (θ̂ − θ_d).
-    fn reference(&self, j: usize) -> f64 {
-        self.theta(j) - self.error(j)
-    }
-}
-
-fn values(f: &Telemetry) -> Values<'_> {
-    Values(&f.values)
 }
 
 fn mean(x: impl Iterator<Item = f64>) -> f64 {
@@ -378,7 +308,7 @@ fn mean(x: impl Iterator<Item = f64>) -> f64 {
 
 /// Check 2.
 fn loads(r: &mut Report, frames: &[Telemetry], s: &Status) -> bool {
-    let load = |i: usize| mean(frames.iter().map(|f| values(f).at(10 + i)));
+    let load = |i: usize| mean(frames.iter().map(|f| values(f).load(i)));
     let (piezo, motor) = (load(0), load(1));
     let misses = [s.loads[0].misses, s.loads[1].misses];
     let pass = piezo < 0.5 && motor < 0.5 && misses == [0, 0];
@@ -403,14 +333,13 @@ fn encoder(
     o: &Options,
     r: &mut Report,
     joint: usize,
-    motor_hz: f64,
     model: &flexarm_core::model::Model<f64>,
 ) -> Result<bool, ConsoleError> {
     let (direction, scale) = match joint {
         0 => ("encoder 1 direction", "encoder 1 counts/rad"),
         _ => ("encoder 2 direction", "encoder 2 counts/rad"),
     };
-    let before = collect(c, 0.25, motor_hz)?;
+    let before = interrupt::collect(c, 0.25)?;
     let Some(last) = before.last() else {
         return Err(ConsoleError::Timeout("telemetry".into()));
     };
@@ -423,7 +352,7 @@ fn encoder(
         move_time: time,
         ramp_time: ramp,
     };
-    let (frames, ended) = follow(c, &format!("nudge joint {}", joint + 1), nudge, motor_hz)?;
+    let (frames, ended) = follow(c, &format!("nudge joint {}", joint + 1), nudge)?;
     let expected = format!("+{:.3} rad", o.nudge);
     if ended.mode == Mode::Fault {
         // The joint whose reading moved against its torque runs away: its encoder is reversed.
@@ -482,6 +411,7 @@ fn encoder(
         .iter()
         .find(|f| (values(f).reference(joint) - held[joint]).abs() > 1e-6)
         .map_or(0, |f| f.tick.saturating_sub(1));
+    let motor_hz = f64::from(c.hello.motor_hz);
     let span = |from: f64, to: f64| {
         mean(frames.iter().filter_map(|f| {
             let t = f.tick.saturating_sub(t0) as f64 / motor_hz;
@@ -513,7 +443,7 @@ fn encoder(
         move_time: time as f32,
         ramp_time: ramp as f32,
     };
-    let (_, ended) = follow(c, &format!("joint {} back", joint + 1), back, motor_hz)?;
+    let (_, ended) = follow(c, &format!("joint {} back", joint + 1), back)?;
     if ended.mode == Mode::Fault {
         return Err(ConsoleError::Unexpected(format!(
             "fault {} moving joint {} back",
@@ -538,19 +468,18 @@ fn film(
     c: &mut Client,
     o: &Options,
     r: &mut Report,
-    motor_hz: f64,
     model: &flexarm_core::model::Model<f64>,
 ) -> Result<(), ConsoleError> {
-    let base = collect(c, 0.5, motor_hz)?;
+    let base = interrupt::collect(c, 0.5)?;
     c.set(Param::VaBias, o.bias)?;
-    let step = collect(c, 1.0, motor_hz)?;
+    let step = interrupt::collect(c, 1.0)?;
     c.set(Param::VaBias, 0.0)?;
     // The settled halves.
     let settled =
-        |f: &[Telemetry], i: usize| mean(f[f.len() / 2..].iter().map(|f| values(f).at(i)));
+        |f: &[Telemetry], v: fn(Values) -> f64| mean(f[f.len() / 2..].iter().map(|f| v(values(f))));
     let (va, vf) = (
-        settled(&step, 8) - settled(&base, 8),
-        settled(&step, 9) - settled(&base, 9),
+        settled(&step, |v| v.v_a()) - settled(&base, |v| v.v_a()),
+        settled(&step, |v| v.v_f()) - settled(&base, |v| v.v_f()),
     );
     let measured = vf / va;
     let expected = film_gain_model(model, &PiezoPatch::<f64>::paper());

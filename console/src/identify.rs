@@ -3,11 +3,11 @@
 //! back for each joint from where the arm holds, the same cruise averages (the firmware's torque
 //! commands and its estimated angles), the same fit and files.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use flexarm_core::Vector2;
 use flexarm_link::Command;
-use flexarm_link::msg::{Mode, Move, Telemetry};
+use flexarm_link::msg::{Mode, Move};
 use flexarm_sim::identify::{self, Cruise, Friction};
 
 use crate::client::{Client, ConsoleError};
@@ -36,10 +36,10 @@ pub fn friction(
     let motor_hz = f64::from(c.hello.motor_hz.max(1));
     c.subscribe_fastest(1)?;
     let model = record::paper_model();
-    let mut frames = wait_frames(c)?;
+    let mut frames = interrupt::collect(c, 0.0)?;
     let held = frames.last().map_or(Vector2::zeros(), |f| {
-        let v = &f.values;
-        Vector2::new(f64::from(v[2] - v[0]), f64::from(v[3] - v[1]))
+        let v = record::values(f);
+        Vector2::new(v.reference(0), v.reference(1))
     });
     let mut cruises = Vec::new();
     for joint in 0..2 {
@@ -55,7 +55,8 @@ pub fn friction(
                 };
                 c.done(&what, Command::Move(m))?;
                 frames.clear();
-                let ended = interrupt::follow_move(c, &what, &mut frames, Duration::from_secs(60))?;
+                let ended =
+                    interrupt::follow_move(c, &what, &mut frames, Some(Duration::from_secs(60)))?;
                 if ended.mode != Mode::Armed {
                     return Err(ConsoleError::Unexpected(format!(
                         "{what}: the move ended in {}",
@@ -66,13 +67,11 @@ pub fn friction(
                     )));
                 }
                 // The move's start: the last frame before the reference leaves the start pose.
-                let reference = |f: &Telemetry| {
-                    let v = &f.values;
-                    f64::from(v[2 + joint] - v[joint])
-                };
                 let start = frames
                     .windows(2)
-                    .find(|w| (reference(&w[1]) - leg.start[joint]).abs() > 1e-6)
+                    .find(|w| {
+                        (record::values(&w[1]).reference(joint) - leg.start[joint]).abs() > 1e-6
+                    })
                     .map_or(0, |w| w[0].tick);
                 let trace: Vec<_> = frames
                     .iter()
@@ -95,20 +94,4 @@ pub fn friction(
     let fits =
         identify::fit_joints(&cruises).map_err(|e| ConsoleError::Unexpected(e.to_string()))?;
     Ok((cruises, fits))
-}
-
-/// The first frames of the stream.
-fn wait_frames(c: &mut Client) -> Result<Vec<Telemetry>, ConsoleError> {
-    let start = Instant::now();
-    loop {
-        c.ask(Command::Ping)?;
-        c.pump(Duration::from_millis(20))?;
-        let f = c.take_telemetry();
-        if !f.is_empty() {
-            return Ok(f);
-        }
-        if start.elapsed() > Duration::from_secs(3) {
-            return Err(ConsoleError::Timeout("the first telemetry frame".into()));
-        }
-    }
 }

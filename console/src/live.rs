@@ -28,6 +28,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Axis, Block, Chart, Dataset, Gauge, GraphType, Paragraph};
 
 use crate::client::{Client, ConsoleError};
+use crate::record::{Values, values};
 
 /// Screen redraws: 10 a second, readable and light.
 pub const REDRAW: Duration = Duration::from_millis(100);
@@ -140,24 +141,22 @@ impl View {
             self.last_seq = Some(f.seq);
             self.frames += 1;
             let tick0 = *self.tick0.get_or_insert(f.tick);
-            let v: Vec<f64> = f.values.iter().map(|&x| f64::from(x)).collect();
             self.latest = Some(f.values.to_vec());
             if !self.frames.is_multiple_of(self.every) {
                 continue;
             }
             let t = f.tick.saturating_sub(tick0) as f64 / self.motor_hz;
-            let q = flexarm_core::Vector4::new(v[2], v[3], v[4], v[5]);
-            let tip = self.model.tip_deflection(&q);
+            let v = values(f);
             let values = [
-                v[0] * 1e3,
-                v[1] * 1e3,
-                v[4] * 1e3,
-                v[5] * 1e3,
-                tip * 1e3,
-                v[8],
-                v[9],
-                v[6],
-                v[7],
+                v.error(0) * 1e3,
+                v.error(1) * 1e3,
+                v.delta(0) * 1e3,
+                v.delta(1) * 1e3,
+                self.model.tip_deflection(&v.q()) * 1e3,
+                v.v_a(),
+                v.v_f(),
+                v.tau(0),
+                v.tau(1),
             ];
             for (s, y) in self.series.iter_mut().zip(values) {
                 s.push_back((t, y));
@@ -182,18 +181,9 @@ impl View {
         self.series[s as usize].iter().copied().collect()
     }
 
-    fn value(&self, i: usize) -> f64 {
-        self.latest
-            .as_ref()
-            .and_then(|v| v.get(i))
-            .map_or(f64::NAN, |&x| f64::from(x))
-    }
-
-    /// The latest tip deflection [mm].
-    fn tip_mm(&self) -> f64 {
-        self.series[Series::Tip as usize]
-            .back()
-            .map_or(f64::NAN, |&(_, y)| y)
+    /// The latest frame's values (NaN before the first).
+    fn now(&self) -> Values<'_> {
+        Values(self.latest.as_deref().unwrap_or(&[]))
     }
 
     /// Draws the whole view into `frame`.
@@ -212,7 +202,8 @@ impl View {
             Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(top);
         let [c, d] = Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)])
             .areas(bottom);
-        let e = [self.value(0) * 1e3, self.value(1) * 1e3];
+        let now = self.now();
+        let e = [now.error(0) * 1e3, now.error(1) * 1e3];
         self.plot(
             frame,
             a,
@@ -227,9 +218,9 @@ impl View {
             b,
             format!(
                 " vibration  δ̂1 {:+.3}  δ̂2 {:+.3} [×1e-3]  tip {:+.3} mm ",
-                self.value(4) * 1e3,
-                self.value(5) * 1e3,
-                self.tip_mm()
+                now.delta(0) * 1e3,
+                now.delta(1) * 1e3,
+                self.model.tip_deflection(&now.q()) * 1e3
             ),
             &[
                 (Series::D1, "δ̂1", Color::Cyan),
@@ -240,11 +231,7 @@ impl View {
         self.plot(
             frame,
             c,
-            format!(
-                " piezo [V]  V_a {:+.2}  V_f {:+.4} ",
-                self.value(8),
-                self.value(9)
-            ),
+            format!(" piezo [V]  V_a {:+.2}  V_f {:+.4} ", now.v_a(), now.v_f()),
             &[
                 (Series::Va, "V_a", Color::Yellow),
                 (Series::Vf, "V_f", Color::Green),
@@ -255,8 +242,8 @@ impl View {
             d,
             format!(
                 " torque [N·m]  τ1 {:+.3}  τ2 {:+.3} ",
-                self.value(6),
-                self.value(7)
+                now.tau(0),
+                now.tau(1)
             ),
             &[
                 (Series::Tau1, "τ1", Color::Cyan),
@@ -323,7 +310,7 @@ impl View {
             .into_iter()
             .enumerate()
         {
-            let load = self.value(10 + i);
+            let load = self.now().load(i);
             let ratio = if load.is_finite() {
                 load.clamp(0.0, 1.0)
             } else {

@@ -301,19 +301,11 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
     }
     let mut c = Client::connect(link, Duration::from_secs_f64(cli.wait))?;
     if cli.arm {
-        match c.request("arm", Command::Arm)? {
-            Reply::Done => println!("arm: done"),
-            r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
-        }
+        c.done("arm", Command::Arm)?;
+        println!("arm: done");
     }
-    let done = |c: &mut Client, what: &str, command: Command| -> Result<(), ConsoleError> {
-        match c.request(what, command)? {
-            Reply::Done => {
-                println!("{what}: done");
-                Ok(())
-            }
-            r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
-        }
+    let done = |c: &mut Client, what: &str, command: Command| {
+        c.done(what, command).map(|()| println!("{what}: done"))
     };
     match cli.command {
         Action::Status => {
@@ -322,10 +314,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 "{} on {:?} (protocol {}, parameters {:08x}); motor loop {} Hz, piezo loop {} Hz",
                 h.build, h.board, h.version, h.params_hash, h.motor_hz, h.piezo_hz
             );
-            match c.request("status", Command::Status)? {
-                Reply::Status(s) => print_status(&s),
-                r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
-            }
+            print_status(&c.status()?);
         }
         Action::Arm => done(&mut c, "arm", Command::Arm)?,
         Action::Disarm => done(&mut c, "disarm", Command::Disarm)?,
@@ -356,20 +345,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             println!("{what}: started");
             // Stay on the line until the move has ended: the requests feed the link watchdog,
             // which would stop a move whose host went away.
-            let ended = loop {
-                std::thread::sleep(Duration::from_millis(50));
-                if interrupt::requested() {
-                    interrupt::stop_arm(&mut c)?;
-                    return Err(ConsoleError::Interrupted(format!(
-                        "{what}: the arm was stopped short of the move's end"
-                    )));
-                }
-                match c.request("status", Command::Status)? {
-                    Reply::Status(s) if matches!(s.mode, Mode::Moving | Mode::Stopping) => {}
-                    Reply::Status(s) => break s,
-                    r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
-                }
-            };
+            let ended = interrupt::follow_move(&mut c, what, &mut Vec::new(), None)?;
             match ended.fault {
                 None => println!("{what}: ended, holding"),
                 Some(f) => {
@@ -566,16 +542,10 @@ fn start_move(
                 points: heapless::Vec::from_slice(chunk)
                     .map_err(|_| ConsoleError::Usage("a chunk larger than a frame holds".into()))?,
             };
-            match c.request(&format!("waypoints {first}…"), command)? {
-                Reply::Done => {}
-                r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
-            }
+            c.done(&format!("waypoints {first}…"), command)?;
         }
     }
-    match c.request(what, Command::Move(m))? {
-        Reply::Done => Ok(()),
-        r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
-    }
+    c.done(what, Command::Move(m))
 }
 
 /// `compare`: the table, the figure, and the verdict of `--within`.

@@ -28,8 +28,8 @@ use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::plant::State;
 use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::JointTrajectory;
+use flexarm_link::Command;
 use flexarm_link::msg::{Channels, Move, Param, Telemetry};
-use flexarm_link::{Command, Reply};
 use flexarm_sim::outdir::OutDir;
 use flexarm_sim::sim::{
     Rates, Sample, Sensors, SimConfig, StateSource, Summary, simulate_segments, summarize,
@@ -82,28 +82,81 @@ pub struct Recording {
     pub info: Info,
 }
 
-/// The frame's values as a sample at `t` [s] (all channels, in [`Channels`] order).
+/// A telemetry frame of every channel ([`Channels::ALL`]) read by name: what `record`, `live`,
+/// `bringup` and `identify` take from the stream. A value the frame lacks reads NaN.
+#[derive(Clone, Copy)]
+pub struct Values<'a>(pub &'a [f32]);
+
+impl Values<'_> {
+    fn at(&self, i: usize) -> f64 {
+        self.0.get(i).map_or(f64::NAN, |&v| f64::from(v))
+    }
+    /// Tracking error `θ_j − θ_d,j` [rad].
+    pub fn error(&self, j: usize) -> f64 {
+        self.at(j)
+    }
+    /// Estimated angle `θ̂_j` [rad].
+    pub fn theta(&self, j: usize) -> f64 {
+        self.at(2 + j)
+    }
+    /// Estimated modal coordinate `δ̂_j` [√kg·m].
+    pub fn delta(&self, j: usize) -> f64 {
+        self.at(4 + j)
+    }
+    /// Torque command `τ_j` [N·m].
+    pub fn tau(&self, j: usize) -> f64 {
+        self.at(6 + j)
+    }
+    /// Piezo command [V].
+    pub fn v_a(&self) -> f64 {
+        self.at(8)
+    }
+    /// Film voltage [V].
+    pub fn v_f(&self) -> f64 {
+        self.at(9)
+    }
+    /// Load of the piezo (0) or motor (1) loop [fraction of its period].
+    pub fn load(&self, i: usize) -> f64 {
+        self.at(10 + i)
+    }
+    /// The reference `θ_d = θ̂ − (θ̂ − θ_d)` [rad].
+    pub fn reference(&self, j: usize) -> f64 {
+        self.theta(j) - self.error(j)
+    }
+    /// `q̂ = (θ̂, δ̂)`.
+    pub fn q(&self) -> flexarm_core::Vector4<f64> {
+        flexarm_core::Vector4::new(self.theta(0), self.theta(1), self.delta(0), self.delta(1))
+    }
+}
+
+/// The frame's values by name.
+pub fn values(f: &Telemetry) -> Values<'_> {
+    Values(&f.values)
+}
+
+/// The frame as a sample at `t` [s] (all channels, in [`Channels`] order); `None` for a frame
+/// without them.
 pub(crate) fn sample(
     f: &Telemetry,
     t: f64,
     model: &flexarm_core::model::Model<f64>,
 ) -> Option<Sample> {
-    let v: Vec<f64> = f.values.iter().map(|&x| f64::from(x)).collect();
-    let [e1, e2, th1, th2, d1, d2, tau1, tau2, v_a, v_f, ..] = v[..] else {
+    if f.values.len() < 10 {
         return None;
-    };
-    let q = flexarm_core::Vector4::new(th1, th2, d1, d2);
+    }
+    let v = values(f);
+    let q = v.q();
     Some(Sample {
         t,
         x: State {
             q,
             qd: flexarm_core::Vector4::new(f64::NAN, f64::NAN, f64::NAN, f64::NAN),
         },
-        q_d: Vector2::new(th1 - e1, th2 - e2),
-        delta_seen: Vector2::new(d1, d2),
-        tau: Vector2::new(tau1, tau2),
-        v_a,
-        v_f,
+        q_d: Vector2::new(v.reference(0), v.reference(1)),
+        delta_seen: Vector2::new(v.delta(0), v.delta(1)),
+        tau: Vector2::new(v.tau(0), v.tau(1)),
+        v_a: v.v_a(),
+        v_f: v.v_f(),
         tip: model.tip_deflection(&q),
     })
 }
@@ -120,39 +173,24 @@ pub fn record(
 ) -> Result<Recording, ConsoleError> {
     let hello = c.hello.clone();
     let motor_hz = f64::from(hello.motor_hz);
-    let mut get = |what: &str, p: Param| match c.request(what, Command::Get(p))? {
-        Reply::Value(v) => Ok(v),
-        r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
-    };
-    let k_c = get("get kc", Param::Kc)?;
-    let kp = [get("get kp0", Param::Kp(0))?, get("get kp1", Param::Kp(1))?];
-    let dropped_before = dropped(c)?;
-    match c.request(
+    let k_c = c.get(Param::Kc)?;
+    let kp = [c.get(Param::Kp(0))?, c.get(Param::Kp(1))?];
+    let dropped_before = c.status()?.telemetry_dropped;
+    c.done(
         "subscribe",
         Command::Subscribe {
             decimation,
             channels: Channels(Channels::ALL),
         },
-    )? {
-        Reply::Done => {}
-        r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
-    }
+    )?;
     // The first frame: the recording's time zero and the pose held.
-    let mut frames = Vec::new();
-    let wait = Instant::now();
-    while frames.is_empty() {
-        if wait.elapsed() > Duration::from_secs(2) {
-            return Err(ConsoleError::Timeout("the first telemetry frame".into()));
-        }
-        c.ask(Command::Ping)?;
-        frames.extend(c.take_telemetry());
-    }
+    let mut frames = interrupt::collect(c, 0.0)?;
     let tick0 = frames[0].tick;
-    // The pose held, where the drive plans the move from: the reference θ̂ − (θ̂ − θ_d).
-    let from = frames
-        .last()
-        .and_then(|f| f.values.get(0..4))
-        .map_or([0.0; 2], |v| [v[2] - v[0], v[3] - v[1]]);
+    // The pose held, where the drive plans the move from.
+    let from = frames.last().map_or([0.0; 2], |f| {
+        let v = values(f);
+        [v.reference(0) as f32, v.reference(1) as f32]
+    });
     if mv.is_some() {
         start(c)?;
     }
@@ -190,7 +228,7 @@ pub fn record(
         .windows(2)
         .map(|w| u64::from(w[1].seq.wrapping_sub(w[0].seq).saturating_sub(1)))
         .sum();
-    let dropped = dropped(c)?.saturating_sub(dropped_before);
+    let dropped = c.status()?.telemetry_dropped.saturating_sub(dropped_before);
     let model = paper_model();
     let trace: Vec<Sample> = frames
         .iter()
@@ -210,13 +248,6 @@ pub fn record(
         waypoints: None,
     };
     Ok(Recording { trace, info })
-}
-
-fn dropped(c: &mut Client) -> Result<u32, ConsoleError> {
-    match c.request("status", Command::Status)? {
-        Reply::Status(s) => Ok(s.telemetry_dropped),
-        r => Err(ConsoleError::Unexpected(format!("{r:?}"))),
-    }
 }
 
 /// A progress bar in tenths of a second, on a terminal only.

@@ -264,7 +264,6 @@ impl<T: Real> Gains<T> {
     /// `λT > 2`: at 100 Hz the paper's gains give `λT = 2.2`, and the QEMU board's hold
     /// settled into a limit cycle, its joint-1 torque flipping by about ±4 N·m every period.
     /// At 1 kHz (`λT = 0.22`) and above the gains are the paper's.
-    #[inline]
     pub fn default_for(motor_hz: u32) -> Self {
         let scale = (f64::from(motor_hz) / PAPER_VELOCITY_LOOP_RATE).min(1.0);
         let mut g = Self::default();

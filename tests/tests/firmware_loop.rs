@@ -31,8 +31,7 @@ fn run(piezo_hz: f32, ratio: u32, table: &[[f32; 3]; 8], law: MotorLaw, seconds:
     let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
     let mut ctrl = Controller::paper(law, traj, dt_p, dt_m, gain(table));
     // As the firmware: the paper's gains, slowed for a slow motor loop.
-    let kp = flexarm_core::params::Gains::<f32>::default_for((1.0 / dt_m).round() as u32).kp;
-    (ctrl.motor.gains.kp.x, ctrl.motor.gains.kp.y) = (kp.x, kp.y);
+    ctrl.motor.gains = flexarm_core::params::Gains::default_for((1.0 / dt_m).round() as u32);
     let mut sim = SimArm::new(
         Model::new(arm),
         patch,

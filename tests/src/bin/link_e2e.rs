@@ -265,8 +265,7 @@ fn path_simulation() -> Result<f32, String> {
         gain(&GAIN_100HZ),
     );
     // The QEMU board's gains for its 100 Hz loop.
-    let kp = flexarm_core::params::Gains::<f32>::default_for(100).kp;
-    (ctrl.motor.gains.kp.x, ctrl.motor.gains.kp.y) = (kp.x, kp.y);
+    ctrl.motor.gains = flexarm_core::params::Gains::default_for(100);
     let mut tuning = flexarm_core::tuning::Tuning {
         piezo: flexarm_core::control::piezo::PiezoGains::default(),
         piezo_period: 1e-3,
