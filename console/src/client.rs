@@ -188,7 +188,11 @@ impl Client {
             match self.link.read(&mut self.buffer) {
                 Ok(0) => return Err(ConsoleError::Io("the firmware closed the line".into())),
                 Ok(n) => (self.at, self.filled) = (0, n),
-                Err(e) if is_timeout(&e) => return Ok(Read::Quiet),
+                // A signal (Ctrl-C) interrupting the wait is a quiet read too: the caller's loop
+                // then sees the request.
+                Err(e) if is_timeout(&e) || e.kind() == std::io::ErrorKind::Interrupted => {
+                    return Ok(Read::Quiet);
+                }
                 Err(e) => return Err(ConsoleError::Io(format!("receive: {e}"))),
             }
         }
