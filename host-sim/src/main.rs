@@ -83,9 +83,17 @@ enum Command {
     /// Identification of an arm from measured data (docs/identification.md). `friction`: each
     /// joint's Coulomb and viscous friction from constant-speed moves, on the simulator's plant.
     Identify {
-        /// The experiment: `friction`.
-        #[arg(value_parser = ["friction"])]
+        /// The experiment: `friction`, `modes` (the link's, joints held), `inertia` (the rigid
+        /// combinations), or `all` of them and then the identified model and its closed-loop check.
+        #[arg(value_parser = ["friction", "modes", "inertia", "all"])]
         experiment: String,
+        /// Fit this recording instead of running the experiment (`modes`, `inertia`): a trace
+        /// CSV (a run's, or a board's `flexarm record`), evenly sampled.
+        #[arg(long)]
+        record: Option<PathBuf>,
+        /// Length of the modes experiment's record [s].
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
         /// Cruise speeds [rad/s], both directions each.
         #[arg(long, value_delimiter = ',', default_value = "0.1,0.2,0.3,0.5")]
         speeds: Vec<f64>,
@@ -404,7 +412,9 @@ fn main_result(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Identify {
-            experiment: _,
+            experiment,
+            record,
+            seconds,
             speeds,
             cruise,
             out,
@@ -421,6 +431,37 @@ fn main_result(cli: Cli) -> Result<()> {
             };
             if let Some(t) = truth {
                 cfg = cfg.with_truth(t).map_err(|e| e.to_string())?;
+            }
+            if experiment != "friction" {
+                use flexarm_sim::identify::workflow;
+                let dir = OutDir::open(&out, "identify", force)?;
+                let b = workflow::Bench {
+                    cfg: &cfg,
+                    known: truth.is_some(),
+                    dir: dir.staging(),
+                    plots: !no_plots,
+                };
+                let report = match experiment.as_str() {
+                    "modes" => workflow::modes_step(&b, record.as_deref(), seconds)?.1,
+                    "inertia" => workflow::inertia_step(&b, record.as_deref())?.1,
+                    _ if record.is_some() => {
+                        return Err("--record: `all` runs every experiment itself; fit a recording with `modes` or `inertia`".into());
+                    }
+                    _ => workflow::all(
+                        &b,
+                        (
+                            &flexarm_core::params::ArmParams::default(),
+                            &flexarm_core::control::piezo::PiezoPatch::paper(),
+                        ),
+                        seconds,
+                    )?,
+                };
+                let files = dir.commit()?;
+                println!("{report}\nWrote {}: {}.", out.display(), files.join(", "));
+                return Ok(());
+            }
+            if record.is_some() {
+                return Err("--record: the friction experiment's recordings are its moves; run it (or `flexarm identify friction` on a board)".into());
             }
             let held = nalgebra::Vector2::new(-1.2, -1.2);
             let cruises = identify::friction_experiment(&cfg, held, &speeds, cruise)

@@ -79,8 +79,16 @@ pub fn read_csv(path: &Path) -> Result<Vec<crate::sim::Sample>, String> {
 
 /// Writes `<scenario>_<controller>.csv`: one row per motor period.
 pub fn write_csv(dir: &Path, o: &Outcome) -> std::io::Result<()> {
+    fs::write(
+        dir.join(format!("{}_{}.csv", o.case.scenario, o.case.controller)),
+        trace_csv(&o.trace),
+    )
+}
+
+/// A trace as the CSV [`read_csv`] reads ([`CSV_HEADER`]).
+pub fn trace_csv(trace: &[crate::sim::Sample]) -> String {
     let mut s = format!("{CSV_HEADER}\n");
-    for p in &o.trace {
+    for p in trace {
         let q = &p.x.q;
         let _ = writeln!(
             s,
@@ -103,10 +111,7 @@ pub fn write_csv(dir: &Path, o: &Outcome) -> std::io::Result<()> {
             p.v_f
         );
     }
-    fs::write(
-        dir.join(format!("{}_{}.csv", o.case.scenario, o.case.controller)),
-        s,
-    )
+    s
 }
 
 type Series = (&'static str, Vec<(f64, f64)>);

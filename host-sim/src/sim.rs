@@ -143,7 +143,8 @@ impl Sensors {
         }
     }
 
-    fn angle(&self, x: f64) -> f64 {
+    /// The encoder's reading of the angle `x` [rad].
+    pub fn angle(&self, x: f64) -> f64 {
         match self.encoder_counts {
             Some(n) => {
                 let lsb = std::f64::consts::TAU / n;
@@ -766,6 +767,34 @@ pub fn simulate_segments(
     segments: &[(f64, JointTrajectory<f32>)],
     record: bool,
 ) -> Result<(Summary, Vec<Sample>), SimError> {
+    run(cfg, segments, record, None)
+}
+
+/// [`simulate`] with an excitation of the patch: `bias(t)` [V] added to the piezo loop's
+/// command each piezo period (the command is 0 V with the loop off, `piezo: None`), as a drive
+/// applies its `va_bias` (`Controller::bias_piezo`: within the amplifier's window, the observer
+/// predicting with the command as applied). The identification experiments' runs
+/// (`crate::identify`); the observer-based controller only.
+pub fn simulate_excited(
+    cfg: &SimConfig,
+    segments: &[(f64, JointTrajectory<f32>)],
+    bias: &dyn Fn(f64) -> f64,
+) -> Result<(Summary, Vec<Sample>), SimError> {
+    if cfg.state != StateSource::Observer {
+        return Err(SimError::Input {
+            key: "state",
+            msg: "an excited run needs the observer-based controller".into(),
+        });
+    }
+    run(cfg, segments, true, Some(bias))
+}
+
+fn run(
+    cfg: &SimConfig,
+    segments: &[(f64, JointTrajectory<f32>)],
+    record: bool,
+    bias: Option<&dyn Fn(f64) -> f64>,
+) -> Result<(Summary, Vec<Sample>), SimError> {
     let Some(&(_, first)) = segments.first() else {
         return Err(SimError::Input {
             key: "trajectory",
@@ -797,6 +826,7 @@ pub fn simulate_segments(
     let mut indices = Indices::new(cfg.duration, cfg.tail_window);
     let mut trace = Vec::new();
     let (mut tau, mut v_a, mut v_f) = (Vector2::<f64>::zeros(), 0.0_f64, 0.0_f64);
+    let mut cmd_prev = 0.0_f64;
     // Measurements held back one period when `sensors.delay`.
     let mut held: Option<(State<f64>, f64)> = None;
     let motion = MotionLimits::<f32>::default_for(cfg.rates.motor_hz.round() as u32);
@@ -815,6 +845,17 @@ pub fn simulate_segments(
                 Loop::Observer(c) if cfg.piezo.is_some() => f64::from(c.piezo_step(v_f as f32)),
                 Loop::Observer(_) => 0.0,
             };
+            // The bias on top: with the loop off the controller's command persists, so the
+            // step adds the change of the bias.
+            let cmd = match (&mut ctrl, bias) {
+                (Loop::Observer(c), Some(b)) => {
+                    let b = b(t);
+                    let step = if cfg.piezo.is_some() { b } else { b - cmd_prev };
+                    f64::from(c.bias_piezo(step as f32))
+                }
+                _ => cmd,
+            };
+            cmd_prev = cmd;
             v_a = match cfg.sensors.piezo_slew {
                 Some(rate) => v_a + (cmd - v_a).clamp(-rate * piezo_dt, rate * piezo_dt),
                 None => cmd,

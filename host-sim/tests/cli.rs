@@ -645,3 +645,97 @@ fn identify_friction_writes_its_files_and_refuses_bad_settings() {
         );
     }
 }
+
+/// `identify modes` runs the experiment (its record saved), then fits its own record again
+/// through `--record` to the same table; a recording that is not a trace, or too short, is one
+/// line naming the file, and nothing is written.
+#[test]
+fn identify_modes_fits_a_run_or_a_recording() {
+    let out = fresh_dir("identify-modes");
+    let o = out.to_str().unwrap();
+    let (ok, stdout, stderr) = sim(&[
+        "identify",
+        "modes",
+        "--plant",
+        "truth",
+        "--seconds",
+        "20",
+        "--no-plots",
+        "--out",
+        o,
+    ]);
+    assert!(ok, "{stderr}");
+    assert_eq!(
+        names_in(&out),
+        [
+            ".flexarm-outputs",
+            "modes.md",
+            "modes_frf.csv",
+            "modes_record.csv"
+        ]
+    );
+    let table = |s: &str| {
+        s.lines()
+            .filter(|l| l.starts_with("| 1 |") || l.starts_with("| 2 |"))
+            .map(String::from)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(table(&stdout).len(), 2, "{stdout}");
+    let again = fresh_dir("identify-modes-again");
+    let record = out.join("modes_record.csv");
+    let (ok, stdout2, stderr) = sim(&[
+        "identify",
+        "modes",
+        "--plant",
+        "truth",
+        "--record",
+        record.to_str().unwrap(),
+        "--no-plots",
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    // The CSV's rounding moves the fit in the last digits only.
+    let freq = |rows: Vec<String>| -> Vec<f64> {
+        rows.iter()
+            .map(|r| r.split('|').nth(2).unwrap().trim().parse().unwrap())
+            .collect()
+    };
+    for (a, b) in freq(table(&stdout)).iter().zip(freq(table(&stdout2))) {
+        assert!((a - b).abs() < 0.01 * a, "{a} Hz refitted as {b} Hz");
+    }
+    let short = scratch(
+        "short_record.csv",
+        &std::fs::read_to_string(&record)
+            .unwrap()
+            .lines()
+            .take(5000)
+            .collect::<Vec<_>>()
+            .join("\n"),
+    );
+    let not_trace = scratch("not_a_trace.csv", "a,b\n1,2\n");
+    for (file, needle) in [
+        (&short, "too short for modes down to 1.5 Hz"),
+        (&not_trace, "not a flexarm trace"),
+    ] {
+        let bad = fresh_dir("identify-modes-bad");
+        let (ok, _, stderr) = sim(&[
+            "identify",
+            "modes",
+            "--record",
+            file.to_str().unwrap(),
+            "--out",
+            bad.to_str().unwrap(),
+        ]);
+        assert!(!ok && stderr.lines().count() == 1, "{stderr}");
+        assert!(
+            stderr.contains(needle) && stderr.contains(file.file_name().unwrap().to_str().unwrap()),
+            "{stderr}"
+        );
+        assert!(
+            !bad.exists() || names_in(&bad).is_empty(),
+            "wrote {:?}",
+            names_in(&bad)
+        );
+    }
+}

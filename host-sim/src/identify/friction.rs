@@ -1,5 +1,4 @@
-//! Identifying an arm from measured data (issue 17, docs/identification.md). This first part:
-//! the joints' friction.
+//! The joints' friction.
 //!
 //! ## Friction: the experiment
 //! Each joint in turn, the other holding, runs trapezoids at constant speeds `v` (default 0.1,
@@ -25,6 +24,7 @@
 use flexarm_core::Vector2;
 use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
 
+use super::IdentifyError;
 use crate::sim::{Sample, SimConfig, simulate};
 
 /// Time after the accelerating ramp before the cruise is averaged: the link's first mode and
@@ -32,25 +32,6 @@ use crate::sim::{Sample, SimConfig, simulate};
 pub const SETTLE: f64 = 1.0;
 /// Ramp acceleration of the experiment's moves [rad/s²].
 pub const ACCEL: f64 = 1.0;
-
-/// What a friction fit can refuse.
-#[derive(Clone, Debug, PartialEq)]
-pub enum IdentifyError {
-    /// The data cannot determine the parameters, and why.
-    Data(String),
-    /// The simulation of an experiment failed.
-    Sim(String),
-}
-
-impl std::fmt::Display for IdentifyError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Data(m) | Self::Sim(m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for IdentifyError {}
 
 /// One cruise: a constant-speed stretch of one joint's move.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,0 +1,196 @@
+//! The reports of the modes, inertia and closed-loop steps: Markdown tables, the measured and
+//! fitted responses as CSV and SVG.
+
+use std::fmt::Write as _;
+
+use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_core::params::ArmParams;
+
+use super::inertia::{InertiaFit, Rigid};
+use super::model::LoopRun;
+use super::modes::ModesFit;
+
+/// `x` against `truth` in percent, or a dash.
+fn pct(x: f64, truth: Option<f64>) -> String {
+    match truth {
+        Some(t) if t != 0.0 => format!("{:+.2} %", (x / t - 1.0) * 100.0),
+        _ => "—".into(),
+    }
+}
+
+/// The modes' table, against the true controller model `truth` when known.
+pub fn modes_report(fit: &ModesFit, truth: Option<(&ArmParams<f64>, &PiezoPatch<f64>)>) -> String {
+    let tau = std::f64::consts::TAU;
+    let mut s = String::from(
+        "| mode | f [Hz] | ζ | g = k_a k_s Δφ'² [V/V·s⁻²] | c = k_s Δφ' w [V·s²/rad·s⁻²] | coherence | true f | true ζ | true g | error f | error ζ | error g |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for (j, m) in fit.modes.iter().enumerate() {
+        let t = truth.map(|(a, p)| {
+            (
+                a.modes.omega[j] / tau,
+                a.modes.zeta[j],
+                p.k_a * p.k_s * p.slope_diff[j].powi(2),
+            )
+        });
+        let show = |x: Option<f64>| x.map_or("—".into(), |v| format!("{v:.4}"));
+        let _ = writeln!(
+            s,
+            "| {} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {} | {} | {} | {} | {} | {} |",
+            j + 1,
+            m.omega / tau,
+            m.zeta,
+            m.piezo_film,
+            m.base_film,
+            m.coherence,
+            show(t.map(|t| t.0)),
+            show(t.map(|t| t.1)),
+            show(t.map(|t| t.2)),
+            pct(m.omega / tau, t.map(|t| t.0)),
+            pct(m.zeta, t.map(|t| t.1)),
+            pct(m.piezo_film, t.map(|t| t.2)),
+        );
+    }
+    if let Some(f) = fit.highpass_hz {
+        let _ = writeln!(
+            s,
+            "\nThe fit also finds the film amplifier's high-pass: a real pole at {f:.2} Hz."
+        );
+    }
+    s
+}
+
+/// The measured and fitted responses: `f_Hz, coherence`, then per input (`piezo`: V_f/V_a,
+/// `base`: V_f/α̈) the measured and fitted real and imaginary parts.
+pub fn frf_csv(fit: &ModesFit) -> String {
+    let mut s = String::from(
+        "f_Hz,coherence,piezo_re,piezo_im,piezo_fit_re,piezo_fit_im,base_re,base_im,base_fit_re,base_fit_im\n",
+    );
+    for (k, f) in fit.frf.freq.iter().enumerate() {
+        let _ = write!(s, "{f:.4},{:.4}", fit.frf.coherence[k]);
+        for i in 0..2 {
+            let (h, g) = (fit.frf.h[k][i], fit.fit.eval(i, *f));
+            let _ = write!(s, ",{:.6e},{:.6e},{:.6e},{:.6e}", h.re, h.im, g.re, g.im);
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// The responses' magnitudes, measured (dots) and fitted (line), one panel per input.
+pub fn frf_figure(
+    path: &std::path::Path,
+    fit: &ModesFit,
+) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    let root = SVGBackend::new(path, (900, 420)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let panels = root.split_evenly((1, 2));
+    let names = ["V_f / V_a [V/V]", "V_f / base acceleration [V·s²/rad]"];
+    let (f0, f1) = (
+        fit.frf.freq.first().copied().unwrap_or(1.0),
+        fit.frf.freq.last().copied().unwrap_or(2.0),
+    );
+    for (i, area) in panels.iter().enumerate() {
+        let measured: Vec<(f64, f64)> = fit
+            .frf
+            .freq
+            .iter()
+            .zip(&fit.frf.h)
+            .map(|(f, h)| (*f, h[i].norm().max(1e-12)))
+            .collect();
+        let fitted: Vec<(f64, f64)> = fit
+            .frf
+            .freq
+            .iter()
+            .map(|f| (*f, fit.fit.eval(i, *f).norm().max(1e-12)))
+            .collect();
+        let hi = measured
+            .iter()
+            .chain(&fitted)
+            .map(|p| p.1)
+            .fold(1e-12, f64::max)
+            * 2.0;
+        let lo = measured
+            .iter()
+            .chain(&fitted)
+            .map(|p| p.1)
+            .fold(f64::INFINITY, f64::min)
+            / 2.0;
+        let mut chart = ChartBuilder::on(area)
+            .caption(names[i], ("sans-serif", 16))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d((f0..f1).log_scale(), (lo..hi).log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("frequency [Hz]")
+            .y_desc("magnitude")
+            .draw()?;
+        chart.draw_series(measured.iter().map(|p| Circle::new(*p, 2, BLUE.filled())))?;
+        chart.draw_series(LineSeries::new(fitted, RED.stroke_width(2)))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// The rigid combinations' table, against `truth` when known.
+pub fn inertia_report(fit: &InertiaFit, truth: Option<Rigid>) -> String {
+    let mut s = String::from(
+        "| combination | identified [kg·m²] | truth [kg·m²] | error |\n|---|---|---|---|\n",
+    );
+    for (name, x, t) in [
+        (
+            "A = I_h1 + I_1 + m1 a1²/4 + (m_h2 + m2) a1²",
+            fit.rigid.a,
+            truth.map(|t| t.a),
+        ),
+        (
+            "J = I_h2 + I_2x + m2 a2²/3",
+            fit.rigid.j,
+            truth.map(|t| t.j),
+        ),
+        ("S = a1 m2 a2 / 2", fit.rigid.s, truth.map(|t| t.s)),
+    ] {
+        let _ = writeln!(
+            s,
+            "| {name} | {x:.5} | {} | {} |",
+            t.map_or("—".into(), |t| format!("{t:.5}")),
+            pct(x, t)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nTorque residual {:.3} N·m RMS of {:.3} N·m. The same fit's friction, (F_c, F_v) per joint: ({:.3}, {:.3}) and ({:.3}, {:.3}) N·m, N·m·s/rad; the friction experiment measures it better.",
+        fit.residual,
+        fit.torque_rms,
+        fit.friction[0].0,
+        fit.friction[0].1,
+        fit.friction[1].0,
+        fit.friction[1].1
+    );
+    s
+}
+
+/// The closed-loop check's table: Eq. 37 of the joint error and of the tip deflection, each
+/// against the first row's (the true parameters).
+pub fn loop_report(runs: &[LoopRun]) -> String {
+    let mut s = String::from(
+        "| controller built from | Eq. 37 ‖θ − θ_d‖ [rad] | vs true | Eq. 37 ‖tip‖ [m] | vs true | max tip [m] |\n|---|---|---|---|---|---|\n",
+    );
+    let first = runs.first().map(|r| r.summary);
+    for r in runs {
+        let m = &r.summary;
+        let _ = writeln!(
+            s,
+            "| {} | {:.4e} | {} | {:.4e} | {} | {:.3e} |",
+            r.name,
+            m.l2_error,
+            pct(m.l2_error, first.map(|f| f.l2_error)),
+            m.l2_tip,
+            pct(m.l2_tip, first.map(|f| f.l2_tip)),
+            m.max_tip
+        );
+    }
+    s
+}

@@ -1,0 +1,172 @@
+//! `cargo sim identify modes | inertia | all`: each step's experiment (or a recording), fit,
+//! files and report; `all` then generates the model and runs the closed-loop check.
+
+use std::path::Path;
+
+use flexarm_core::Vector2;
+use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
+use flexarm_core::params::ArmParams;
+
+use super::inertia::{self, InertiaFit, InertiaPlan, Rigid};
+use super::model::{self, closed_loop, identified_model};
+use super::modes::{self, FitSettings, ModesFit, ModesPlan, ModesRecord};
+use super::report;
+use crate::output::{read_csv, trace_csv};
+use crate::sim::{Sample, SimConfig};
+
+/// Where the experiments run and what is known of the plant.
+pub struct Bench<'a> {
+    /// The simulator's configuration (plant, controller, sensors).
+    pub cfg: &'a SimConfig,
+    /// Whether `cfg`'s controller model is the plant's truth (the truth plant's truncation):
+    /// the reports then give the errors.
+    pub known: bool,
+    /// The folder the files go to (an output folder's staging area).
+    pub dir: &'a Path,
+    /// Draw the figures.
+    pub plots: bool,
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> Result<(), String> {
+    std::fs::write(dir.join(name), text).map_err(|e| format!("cannot write {name}: {e}"))
+}
+
+/// The record: read from `record`, or the experiment `run` on the simulator (saved as
+/// `<name>_record.csv`).
+fn record_or_run(
+    b: &Bench,
+    record: Option<&Path>,
+    name: &str,
+    run: impl FnOnce() -> Result<Vec<Sample>, super::IdentifyError>,
+) -> Result<Vec<Sample>, String> {
+    match record {
+        Some(p) => read_csv(p),
+        None => {
+            let trace = run().map_err(|e| e.to_string())?;
+            write(b.dir, &format!("{name}_record.csv"), &trace_csv(&trace))?;
+            Ok(trace)
+        }
+    }
+}
+
+/// The modes step: `modes.md`, `modes_frf.csv`, `modes.svg` (and the record when simulated).
+pub fn modes_step(
+    b: &Bench,
+    record: Option<&Path>,
+    seconds: f64,
+) -> Result<(ModesFit, String), String> {
+    let plan = ModesPlan {
+        seconds,
+        ..ModesPlan::default()
+    };
+    let trace = record_or_run(b, record, "modes", || modes::modes_experiment(b.cfg, &plan))?;
+    let rec = ModesRecord::from_trace(
+        &trace,
+        b.cfg.sensors.adc_range,
+        (
+            f64::from(b.cfg.limits.v_a_min),
+            f64::from(b.cfg.limits.v_a_max),
+        ),
+    )
+    .and_then(|r| modes::fit_modes(&r, &FitSettings::default()))
+    .map_err(|e| match record {
+        Some(p) => format!("{}: {e}", p.display()),
+        None => e.to_string(),
+    })?;
+    let truth = b.known.then_some((&b.cfg.arm, &b.cfg.patch));
+    let text = format!(
+        "# The link's modes\n\nJoints held at (0, π/2) rad, the patch's bias stepping at random and joint 2 moving about the pose; Welch's H1 over {} segments of {} s (Hann, half overlap), a common-denominator fit in {}–{} Hz (`docs/identification.md`).\n\n{}",
+        rec.frf.segments,
+        FitSettings::default().segment,
+        FitSettings::default().band.0,
+        FitSettings::default().band.1,
+        report::modes_report(&rec, truth)
+    );
+    write(b.dir, "modes.md", &text)?;
+    write(b.dir, "modes_frf.csv", &report::frf_csv(&rec))?;
+    if b.plots {
+        report::frf_figure(&b.dir.join("modes.svg"), &rec)
+            .map_err(|e| format!("cannot draw the figure: {e}"))?;
+    }
+    Ok((rec, text))
+}
+
+/// The inertia step: `inertia.md` (and the record when simulated).
+pub fn inertia_step(b: &Bench, record: Option<&Path>) -> Result<(InertiaFit, String), String> {
+    let trace = record_or_run(b, record, "inertia", || {
+        inertia::inertia_experiment(b.cfg, &InertiaPlan::default())
+    })?;
+    let fit = inertia::fit_inertia(&trace).map_err(|e| match record {
+        Some(p) => format!("{}: {e}", p.display()),
+        None => e.to_string(),
+    })?;
+    let truth = b.known.then(|| Rigid::of(&b.cfg.arm));
+    let text = format!(
+        "# The rigid inertias\n\nBoth joints following sums of sines (0.15–0.9 Hz) about (0, 0.5) rad; least squares on the regressor (`docs/identification.md`).\n\n{}",
+        report::inertia_report(&fit, truth)
+    );
+    write(b.dir, "inertia.md", &text)?;
+    Ok((fit, text))
+}
+
+/// The piezo gain of the closed-loop check and of the generated model: the spillover study's
+/// design rule for the truth plant's link (`host-sim/scenarios/trapezoid_truth.toml`).
+pub const CHECK_PIEZO: PiezoGains<f32> = PiezoGains {
+    k_c: 3.162,
+    cutoff_hz: 30.0,
+};
+
+/// Every step on the simulator, from the `nominal` arm and patch a user starts from; then
+/// `model.toml` and the closed-loop check (`verify.md`). Returns the report.
+pub fn all(
+    b: &Bench,
+    nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
+    seconds: f64,
+) -> Result<String, String> {
+    let speeds = [0.1, 0.2, 0.3, 0.5];
+    let cruises = super::friction_experiment(b.cfg, Vector2::new(-1.2, -1.2), &speeds, 2.0)
+        .map_err(|e| e.to_string())?;
+    let fits = super::fit_joints(&cruises).map_err(|e| e.to_string())?;
+    let known = b
+        .cfg
+        .truth
+        .filter(|_| b.known)
+        .map(|t| [0, 1].map(|j| (t.motors[j].coulomb, t.motors[j].viscous)));
+    let f_text = super::save_friction(
+        b.dir,
+        "Each joint at 0.1, 0.2, 0.3 and 0.5 rad/s, both ways, 2 s of cruise averaged (`cargo sim identify friction`).",
+        &cruises,
+        &fits,
+        known,
+        b.plots,
+    )?;
+    let (modes, m_text) = modes_step(b, None, seconds)?;
+    let (inertia, i_text) = inertia_step(b, None)?;
+    let (arm, patch) = identified_model(nominal.0, nominal.1, &inertia.rigid, &modes.modes)
+        .map_err(|e| e.to_string())?;
+    write(
+        b.dir,
+        "model.toml",
+        &model::model_fragment(&arm, &patch, f64::from(CHECK_PIEZO.k_c)),
+    )?;
+    let check = SimConfig {
+        piezo: Some(CHECK_PIEZO),
+        ..*b.cfg
+    };
+    let runs = closed_loop(
+        &check,
+        &[
+            ("identified model", arm, patch),
+            ("nominal model", *nominal.0, *nominal.1),
+        ],
+    )
+    .map_err(|e| e.to_string())?;
+    let v_text = format!(
+        "# The closed-loop check\n\nThe paper's trapezoid on the simulated plant, the observer-based controller with the piezo loop (k_c = {} s, corner {} Hz), built from each model.\n\n{}",
+        CHECK_PIEZO.k_c,
+        CHECK_PIEZO.cutoff_hz,
+        report::loop_report(&runs)
+    );
+    write(b.dir, "verify.md", &v_text)?;
+    Ok(format!("{f_text}\n{m_text}\n{i_text}\n{v_text}"))
+}
