@@ -1,14 +1,18 @@
-//! `identify friction`: the simulator's friction experiment (`flexarm_sim::identify`, docs/
-//! identification.md) run on the arm over the link: the same constant-speed trapezoids, out and
-//! back for each joint from where the arm holds, the same cruise averages (the firmware's torque
-//! commands and its estimated angles), the same fit and files.
+//! `identify friction` and `identify modes`: the simulator's experiments
+//! (`flexarm_sim::identify`, docs/identification.md) run on the arm over the link, with the
+//! same fits and files. Friction: the same constant-speed trapezoids, out and back for each
+//! joint from where the arm holds, the same cruise averages (the firmware's torque commands and
+//! its estimated angles). Modes: the same blocks of bias steps and moves at the same pose.
 
 use std::time::Duration;
 
 use flexarm_core::Vector2;
+use flexarm_core::trajectory::JointTrajectory;
 use flexarm_link::Command;
-use flexarm_link::msg::{Mode, Move};
+use flexarm_link::msg::{Mode, Move, Param};
+use flexarm_sim::identify::modes::{Excitation, ModesPlan, excitation};
 use flexarm_sim::identify::{self, Cruise, Friction};
+use flexarm_sim::sim::Sample;
 
 use crate::client::{Client, ConsoleError};
 use crate::{fault_name, interrupt, record};
@@ -94,4 +98,125 @@ pub fn friction(
     let fits =
         identify::fit_joints(&cruises).map_err(|e| ConsoleError::Unexpected(e.to_string()))?;
     Ok((cruises, fits))
+}
+
+/// A move of the experiments to `target` in `time` seconds (ramps of a third), followed to its
+/// end with the telemetry kept in `frames`; an error unless the drive ends holding.
+fn run_move(
+    c: &mut Client,
+    what: &str,
+    target: Vector2<f64>,
+    time: f64,
+    frames: &mut Vec<flexarm_link::msg::Telemetry>,
+) -> Result<(), ConsoleError> {
+    let m = Move::Trapezoid {
+        target: [target.x as f32, target.y as f32],
+        move_time: time as f32,
+        ramp_time: (time / 3.0) as f32,
+    };
+    c.done(what, Command::Move(m))?;
+    let ended = interrupt::follow_move(c, what, frames, Some(Duration::from_secs(60)))?;
+    if ended.mode != Mode::Armed {
+        return Err(ConsoleError::Unexpected(format!(
+            "{what}: the move ended in {}",
+            ended.fault.map_or("the drive disarmed".into(), |f| format!(
+                "fault {f} ({})",
+                fault_name(f)
+            ))
+        )));
+    }
+    Ok(())
+}
+
+/// The modes experiment (`flexarm_sim::identify::modes`) on the holding arm: a move to the
+/// plan's pose, then its blocks (the patch's bias steps while holding, each one parameter
+/// write; joint 2's moves, each one `move trapezoid`), the piezo loop off throughout (`k_c`
+/// written back at the end, and the bias back to 0 on every path). Returns the record, one
+/// sample per telemetry frame; lost frames are refused by the fit.
+pub fn modes(c: &mut Client, plan: &ModesPlan) -> Result<Vec<Sample>, ConsoleError> {
+    let s = c.status()?;
+    if s.mode != Mode::Armed {
+        return Err(ConsoleError::Usage(format!(
+            "identify runs on a holding arm (the drive is {:?}): `flexarm arm` first",
+            s.mode
+        )));
+    }
+    let ex = excitation(plan).map_err(|e| ConsoleError::Usage(e.to_string()))?;
+    let window = (c.get(Param::VaMin)?, c.get(Param::VaMax)?);
+    let volts = plan.piezo_volts as f32;
+    if -volts <= window.0 || volts >= window.1 {
+        return Err(ConsoleError::Usage(format!(
+            "--volts {volts}: the steps must stay inside the amplifier's window [{}, {}] V (a clipped command is refused by the fit)",
+            window.0, window.1
+        )));
+    }
+    let k_c = c.get(Param::Kc)?;
+    c.set(Param::Kc, 0.0)?;
+    let outcome = modes_blocks(c, plan, &ex);
+    // The bias is cleared by the drive when it leaves holding; written back here otherwise.
+    if c.status()?.mode == Mode::Armed {
+        let _ = c.ask(Command::Set(Param::VaBias, 0.0))?;
+    }
+    let _ = c.ask(Command::Unsubscribe)?;
+    c.set(Param::Kc, k_c)?;
+    outcome
+}
+
+fn modes_blocks(
+    c: &mut Client,
+    plan: &ModesPlan,
+    ex: &Excitation,
+) -> Result<Vec<Sample>, ConsoleError> {
+    c.subscribe_fastest(1)?;
+    let motor_hz = f64::from(c.hello.motor_hz.max(1));
+    let model = record::paper_model();
+    let mut frames = interrupt::collect(c, 0.0)?;
+    let held = frames.last().map_or(Vector2::zeros(), |f| {
+        let v = record::values(f);
+        Vector2::new(v.reference(0), v.reference(1))
+    });
+    let distance = (plan.pose - held).abs().max();
+    if distance > 1e-3 {
+        run_move(
+            c,
+            "the move to the pose",
+            plan.pose,
+            (distance / 0.5).max(2.0),
+            &mut frames,
+        )?;
+    }
+    frames = interrupt::collect(c, 0.5)?;
+    // The timeline: the bias steps and the moves in the plan's order.
+    let (mut b, mut m) = (0, 0);
+    while b < ex.bias.len() || m < ex.moves.len() {
+        let next_bias = ex.bias.get(b).map_or(f64::INFINITY, |x| x.0);
+        let next_move = ex.moves.get(m).map_or(f64::INFINITY, |x| x.0);
+        if next_bias <= next_move {
+            let (t, v) = ex.bias[b];
+            b += 1;
+            c.set(Param::VaBias, v as f32)?;
+            frames.extend(c.take_telemetry());
+            let until = ex.bias.get(b).map_or(plan.seconds, |x| x.0).min(next_move);
+            frames.extend(interrupt::collect(c, until - t)?);
+        } else {
+            let (_, traj) = ex.moves[m];
+            m += 1;
+            if let JointTrajectory::Trapezoid(tr) = traj {
+                let target = (tr.start + tr.amplitude).cast::<f64>();
+                let what = format!("move {m} of the modes experiment");
+                run_move(
+                    c,
+                    &what,
+                    target,
+                    f64::from(tr.profile.duration()),
+                    &mut frames,
+                )?;
+            }
+        }
+    }
+    let t0 = frames.first().map_or(0, |f| f.tick);
+    Ok(frames
+        .iter()
+        .filter_map(|f| record::sample(f, (f.tick - t0) as f64 / motor_hz, &model))
+        .collect())
 }

@@ -17,7 +17,7 @@ use clap::{Parser, Subcommand};
 use flexarm_console::client::{Client, ConsoleError, HANDSHAKE};
 use flexarm_console::qemu::Qemu;
 use flexarm_console::{fault_name, interrupt, live, params, record, transport, waypoints};
-use flexarm_link::msg::{Mode, Move, Status, WAYPOINTS_PER_CHUNK, Waypoint};
+use flexarm_link::msg::{Mode, Move, Param, Status, WAYPOINTS_PER_CHUNK, Waypoint};
 use flexarm_link::{Command, Reply};
 
 /// The operator's console for the flexarm firmware.
@@ -140,11 +140,22 @@ enum Action {
     },
     /// Identification (docs/identification.md). `friction`: each joint's Coulomb and viscous
     /// friction from constant-speed moves out and back from where the arm holds; writes
-    /// friction.md, .csv, .svg and a [plant] fragment the simulator reads into OUT.
+    /// friction.md, .csv, .svg and a [plant] fragment the simulator reads into OUT. `modes`: the
+    /// link's modes with the joints held at (0, π/2) (the patch's bias steps, joint 2's small
+    /// moves); writes modes.md, modes_frf.csv, modes.svg and the record.
     Identify {
-        /// The experiment: `friction`.
-        #[arg(value_parser = ["friction"])]
+        /// The experiment: `friction` or `modes`.
+        #[arg(value_parser = ["friction", "modes"])]
         experiment: String,
+        /// Length of the modes experiment [s].
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
+        /// The modes experiment's bias steps [V].
+        #[arg(long, default_value_t = 100.0)]
+        volts: f64,
+        /// The modes experiment's moves of joint 2 about the pose [rad].
+        #[arg(long, default_value_t = 0.05)]
+        tap: f64,
         /// The output folder.
         out: PathBuf,
         /// Cruise speeds [rad/s], both directions each.
@@ -427,7 +438,10 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         }
         Action::Faults { out, force } => faults(&mut c, &out, force)?,
         Action::Identify {
-            experiment: _,
+            experiment,
+            seconds,
+            volts,
+            tap,
             out,
             speeds,
             cruise,
@@ -436,6 +450,39 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             // The folder first: a folder the tool may not write is named before the arm moves.
             let dir = flexarm_sim::outdir::OutDir::open(&out, "identify", force)
                 .map_err(ConsoleError::Io)?;
+            if experiment == "modes" {
+                let plan = flexarm_sim::identify::modes::ModesPlan {
+                    seconds,
+                    piezo_volts: volts,
+                    tap,
+                    ..Default::default()
+                };
+                let trace = flexarm_console::identify::modes(&mut c, &plan)?;
+                let window = (
+                    f64::from(c.get(Param::VaMin)?),
+                    f64::from(c.get(Param::VaMax)?),
+                );
+                let film_range =
+                    f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
+                std::fs::write(
+                    dir.staging().join("modes_record.csv"),
+                    flexarm_sim::output::trace_csv(&trace),
+                )
+                .map_err(|e| ConsoleError::Io(format!("cannot write modes_record.csv: {e}")))?;
+                let (_, report) = flexarm_sim::identify::workflow::save_modes(
+                    dir.staging(),
+                    &trace,
+                    film_range,
+                    window,
+                    None,
+                    true,
+                )
+                .map_err(ConsoleError::Failed)?;
+                let files = dir.commit().map_err(ConsoleError::Io)?;
+                print!("{report}");
+                println!("identify: wrote {} in {}", files.join(", "), out.display());
+                return Ok(());
+            }
             let (cruises, fits) = flexarm_console::identify::friction(&mut c, &speeds, cruise)?;
             let heading = format!(
                 "Identified on {} over the link: each joint at {} rad/s, both ways, {cruise} s of cruise averaged (`flexarm identify friction`, docs/identification.md).",

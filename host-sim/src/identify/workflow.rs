@@ -60,35 +60,58 @@ pub fn modes_step(
         ..ModesPlan::default()
     };
     let trace = record_or_run(b, record, "modes", || modes::modes_experiment(b.cfg, &plan))?;
-    let rec = ModesRecord::from_trace(
+    let window = (
+        f64::from(b.cfg.limits.v_a_min),
+        f64::from(b.cfg.limits.v_a_max),
+    );
+    let truth = b.known.then_some((&b.cfg.arm, &b.cfg.patch));
+    save_modes(
+        b.dir,
         &trace,
         b.cfg.sensors.adc_range,
-        (
-            f64::from(b.cfg.limits.v_a_min),
-            f64::from(b.cfg.limits.v_a_max),
-        ),
+        window,
+        truth,
+        b.plots,
     )
-    .and_then(|r| modes::fit_modes(&r, &FitSettings::default()))
     .map_err(|e| match record {
         Some(p) => format!("{}: {e}", p.display()),
-        None => e.to_string(),
-    })?;
-    let truth = b.known.then_some((&b.cfg.arm, &b.cfg.patch));
+        None => e,
+    })
+}
+
+/// Fits the modes record `trace` (film ADC range `±v_f_range` [V], amplifier window [V]) and
+/// writes `modes.md`, `modes_frf.csv` and, with `plots`, `modes.svg` into `dir`; the band's top
+/// is 45 Hz or 0.4 of the record's rate, whichever is lower. Returns the fit and the report.
+pub fn save_modes(
+    dir: &Path,
+    trace: &[Sample],
+    v_f_range: f64,
+    v_a_window: (f64, f64),
+    truth: Option<(&ArmParams<f64>, &PiezoPatch<f64>)>,
+    plots: bool,
+) -> Result<(ModesFit, String), String> {
+    let rec = ModesRecord::from_trace(trace, v_f_range, v_a_window).map_err(|e| e.to_string())?;
+    let d = FitSettings::default();
+    let set = FitSettings {
+        band: (d.band.0, d.band.1.min(0.4 / rec.dt)),
+        ..d
+    };
+    let fit = modes::fit_modes(&rec, &set).map_err(|e| e.to_string())?;
     let text = format!(
-        "# The link's modes\n\nJoints held at (0, π/2) rad, the patch's bias stepping at random and joint 2 moving about the pose; Welch's H1 over {} segments of {} s (Hann, half overlap), a common-denominator fit in {}–{} Hz (`docs/identification.md`).\n\n{}",
-        rec.frf.segments,
-        FitSettings::default().segment,
-        FitSettings::default().band.0,
-        FitSettings::default().band.1,
-        report::modes_report(&rec, truth)
+        "# The link's modes\n\nJoints held at (0, π/2) rad; blocks of the patch's bias stepping at random and of joint 2 moving about the pose; Welch's H1 over {} segments of {} s (Hann, half overlap), a common-denominator fit in {}–{:.0} Hz (`docs/identification.md`).\n\n{}",
+        fit.frf.segments,
+        set.segment,
+        set.band.0,
+        set.band.1,
+        report::modes_report(&fit, truth)
     );
-    write(b.dir, "modes.md", &text)?;
-    write(b.dir, "modes_frf.csv", &report::frf_csv(&rec))?;
-    if b.plots {
-        report::frf_figure(&b.dir.join("modes.svg"), &rec)
+    write(dir, "modes.md", &text)?;
+    write(dir, "modes_frf.csv", &report::frf_csv(&fit))?;
+    if plots {
+        report::frf_figure(&dir.join("modes.svg"), &fit)
             .map_err(|e| format!("cannot draw the figure: {e}"))?;
     }
-    Ok((rec, text))
+    Ok((fit, text))
 }
 
 /// The inertia step: `inertia.md` (and the record when simulated).
