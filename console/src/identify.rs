@@ -1,8 +1,9 @@
-//! `identify friction` and `identify modes`: the simulator's experiments
+//! `identify friction`, `modes` and `inertia`: the simulator's experiments
 //! (`flexarm_sim::identify`, docs/identification.md) run on the arm over the link, with the
 //! same fits and files. Friction: the same constant-speed trapezoids, out and back for each
 //! joint from where the arm holds, the same cruise averages (the firmware's torque commands and
 //! its estimated angles). Modes: the same blocks of bias steps and moves at the same pose.
+//! Inertia: the same random trapezoids of both joints about the same pose.
 
 use std::time::Duration;
 
@@ -10,6 +11,7 @@ use flexarm_core::Vector2;
 use flexarm_core::trajectory::JointTrajectory;
 use flexarm_link::Command;
 use flexarm_link::msg::{Mode, Move, Param};
+use flexarm_sim::identify::inertia::{self, InertiaPlan};
 use flexarm_sim::identify::modes::{Excitation, ModesPlan, excitation};
 use flexarm_sim::identify::{self, Cruise, Friction};
 use flexarm_sim::sim::Sample;
@@ -170,22 +172,7 @@ fn modes_blocks(
     c.subscribe_fastest(1)?;
     let motor_hz = f64::from(c.hello.motor_hz.max(1));
     let model = record::paper_model();
-    let mut frames = interrupt::collect(c, 0.0)?;
-    let held = frames.last().map_or(Vector2::zeros(), |f| {
-        let v = record::values(f);
-        Vector2::new(v.reference(0), v.reference(1))
-    });
-    let distance = (plan.pose - held).abs().max();
-    if distance > 1e-3 {
-        run_move(
-            c,
-            "the move to the pose",
-            plan.pose,
-            (distance / 0.5).max(2.0),
-            &mut frames,
-        )?;
-    }
-    frames = interrupt::collect(c, 0.5)?;
+    let mut frames = to_pose(c, plan.pose)?;
     // The timeline: the bias steps and the moves in the plan's order.
     let (mut b, mut m) = (0, 0);
     while b < ex.bias.len() || m < ex.moves.len() {
@@ -219,4 +206,71 @@ fn modes_blocks(
         .iter()
         .filter_map(|f| record::sample(f, (f.tick - t0) as f64 / motor_hz, &model))
         .collect())
+}
+
+/// The inertia experiment (`flexarm_sim::identify::inertia`) on the holding arm: a move to the
+/// plan's pose, then its moves one after another, each a `move trapezoid` the drive validates.
+/// Returns the record, one sample per telemetry frame; lost frames are refused by the fit.
+pub fn inertia(c: &mut Client, plan: &InertiaPlan) -> Result<Vec<Sample>, ConsoleError> {
+    let s = c.status()?;
+    if s.mode != Mode::Armed {
+        return Err(ConsoleError::Usage(format!(
+            "identify runs on a holding arm (the drive is {:?}): `flexarm arm` first",
+            s.mode
+        )));
+    }
+    let moves = inertia::moves(plan).map_err(|e| ConsoleError::Usage(e.to_string()))?;
+    c.subscribe_fastest(1)?;
+    let outcome = inertia_moves(c, plan, &moves);
+    let _ = c.ask(Command::Unsubscribe)?;
+    outcome
+}
+
+fn inertia_moves(
+    c: &mut Client,
+    plan: &InertiaPlan,
+    moves: &[inertia::InertiaMove],
+) -> Result<Vec<Sample>, ConsoleError> {
+    let motor_hz = f64::from(c.hello.motor_hz.max(1));
+    let mut frames = to_pose(c, plan.pose)?;
+    for (k, m) in moves.iter().enumerate() {
+        let what = format!(
+            "move {} of {} of the inertia experiment",
+            k + 1,
+            moves.len()
+        );
+        run_move(c, &what, m.target, m.time, &mut frames)?;
+    }
+    frames.extend(interrupt::collect(c, 0.5)?);
+    let model = record::paper_model();
+    let t0 = frames.first().map_or(0, |f| f.tick);
+    Ok(frames
+        .iter()
+        .filter_map(|f| record::sample(f, (f.tick - t0) as f64 / motor_hz, &model))
+        .collect())
+}
+
+/// Moves the holding arm to `pose` (at most 0.5 rad/s, at least 2 s) and returns the telemetry
+/// from half a second of holding there on (the caller has subscribed).
+fn to_pose(
+    c: &mut Client,
+    pose: Vector2<f64>,
+) -> Result<Vec<flexarm_link::msg::Telemetry>, ConsoleError> {
+    let frames = interrupt::collect(c, 0.0)?;
+    let held = frames.last().map_or(Vector2::zeros(), |f| {
+        let v = record::values(f);
+        Vector2::new(v.reference(0), v.reference(1))
+    });
+    let distance = (pose - held).abs().max();
+    if distance > 1e-3 {
+        let mut moving = Vec::new();
+        run_move(
+            c,
+            "the move to the pose",
+            pose,
+            (distance / 0.5).max(2.0),
+            &mut moving,
+        )?;
+    }
+    interrupt::collect(c, 0.5)
 }

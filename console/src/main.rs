@@ -17,7 +17,7 @@ use clap::{Parser, Subcommand};
 use flexarm_console::client::{Client, ConsoleError, HANDSHAKE};
 use flexarm_console::qemu::Qemu;
 use flexarm_console::{fault_name, interrupt, live, params, record, transport, waypoints};
-use flexarm_link::msg::{Mode, Move, Param, Status, WAYPOINTS_PER_CHUNK, Waypoint};
+use flexarm_link::msg::{Mode, Move, Param, Status, Waypoint};
 use flexarm_link::{Command, Reply};
 
 /// The operator's console for the flexarm firmware.
@@ -142,11 +142,16 @@ enum Action {
     /// friction from constant-speed moves out and back from where the arm holds; writes
     /// friction.md, .csv, .svg and a [plant] fragment the simulator reads into OUT. `modes`: the
     /// link's modes with the joints held at (0, π/2) (the patch's bias steps, joint 2's small
-    /// moves); writes modes.md, modes_frf.csv, modes.svg and the record.
+    /// moves); writes modes.md, modes_frf.csv, modes.svg and the record. `inertia`: the rigid
+    /// inertias from random trapezoids of both joints about (0, 0.5); writes inertia.md and the
+    /// record.
     Identify {
-        /// The experiment: `friction` or `modes`.
-        #[arg(value_parser = ["friction", "modes"])]
+        /// The experiment: `friction`, `modes` or `inertia`.
+        #[arg(value_parser = ["friction", "modes", "inertia"])]
         experiment: String,
+        /// The inertia experiment's moves.
+        #[arg(long, default_value_t = 30)]
+        moves: usize,
         /// Length of the modes experiment [s].
         #[arg(long, default_value_t = 60.0)]
         seconds: f64,
@@ -439,6 +444,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         Action::Faults { out, force } => faults(&mut c, &out, force)?,
         Action::Identify {
             experiment,
+            moves,
             seconds,
             volts,
             tap,
@@ -450,6 +456,25 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             // The folder first: a folder the tool may not write is named before the arm moves.
             let dir = flexarm_sim::outdir::OutDir::open(&out, "identify", force)
                 .map_err(ConsoleError::Io)?;
+            if experiment == "inertia" {
+                let plan = flexarm_sim::identify::inertia::InertiaPlan {
+                    moves,
+                    ..Default::default()
+                };
+                let trace = flexarm_console::identify::inertia(&mut c, &plan)?;
+                std::fs::write(
+                    dir.staging().join("inertia_record.csv"),
+                    flexarm_sim::output::trace_csv(&trace),
+                )
+                .map_err(|e| ConsoleError::Io(format!("cannot write inertia_record.csv: {e}")))?;
+                let (_, report) =
+                    flexarm_sim::identify::workflow::save_inertia(dir.staging(), &trace, None)
+                        .map_err(ConsoleError::Failed)?;
+                let files = dir.commit().map_err(ConsoleError::Io)?;
+                print!("{report}");
+                println!("identify: wrote {} in {}", files.join(", "), out.display());
+                return Ok(());
+            }
             if experiment == "modes" {
                 let plan = flexarm_sim::identify::modes::ModesPlan {
                     seconds,
@@ -582,15 +607,7 @@ fn start_move(
     path: Option<&[Waypoint]>,
 ) -> Result<(), ConsoleError> {
     if let (Move::Waypoints { .. }, Some(points)) = (m, path) {
-        for (k, chunk) in points.chunks(WAYPOINTS_PER_CHUNK).enumerate() {
-            let first = k * WAYPOINTS_PER_CHUNK;
-            let command = Command::Waypoints {
-                first: first as u16,
-                points: heapless::Vec::from_slice(chunk)
-                    .map_err(|_| ConsoleError::Usage("a chunk larger than a frame holds".into()))?,
-            };
-            c.done(&format!("waypoints {first}…"), command)?;
-        }
+        waypoints::upload(c, points)?;
     }
     c.done(what, Command::Move(m))
 }

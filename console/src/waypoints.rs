@@ -80,3 +80,18 @@ pub fn parse(path: &str, text: &str) -> Result<Vec<Waypoint>, ConsoleError> {
     }
     Ok(out)
 }
+
+/// Uploads `points` to the drive in chunks of a frame's worth (`Command::Waypoints`).
+pub fn upload(c: &mut crate::client::Client, points: &[Waypoint]) -> Result<(), ConsoleError> {
+    use flexarm_link::msg::WAYPOINTS_PER_CHUNK;
+    for (k, chunk) in points.chunks(WAYPOINTS_PER_CHUNK).enumerate() {
+        let first = k * WAYPOINTS_PER_CHUNK;
+        let command = flexarm_link::Command::Waypoints {
+            first: first as u16,
+            points: heapless::Vec::from_slice(chunk)
+                .map_err(|_| ConsoleError::Usage("a chunk larger than a frame holds".into()))?,
+        };
+        c.done(&format!("waypoints {first}…"), command)?;
+    }
+    Ok(())
+}

@@ -84,9 +84,17 @@ enum Command {
     /// joint's Coulomb and viscous friction from constant-speed moves, on the simulator's plant.
     Identify {
         /// The experiment: `friction`, `modes` (the link's, joints held), `inertia` (the rigid
-        /// combinations), or `all` of them and then the identified model and its closed-loop check.
-        #[arg(value_parser = ["friction", "modes", "inertia", "all"])]
+        /// combinations), or `all` of them and then the identified model and its closed-loop
+        /// check; or `model`: the model from a board's two records (`--modes-record`,
+        /// `--inertia-record`).
+        #[arg(value_parser = ["friction", "modes", "inertia", "all", "model"])]
         experiment: String,
+        /// `model`: the modes experiment's record (`flexarm identify modes`).
+        #[arg(long)]
+        modes_record: Option<PathBuf>,
+        /// `model`: the inertia experiment's record (`flexarm identify inertia`).
+        #[arg(long)]
+        inertia_record: Option<PathBuf>,
         /// Fit this recording instead of running the experiment (`modes`, `inertia`): a trace
         /// CSV (a run's, or a board's `flexarm record`), evenly sampled.
         #[arg(long)]
@@ -413,6 +421,8 @@ fn main_result(cli: Cli) -> Result<()> {
         }
         Command::Identify {
             experiment,
+            modes_record,
+            inertia_record,
             record,
             seconds,
             speeds,
@@ -432,6 +442,11 @@ fn main_result(cli: Cli) -> Result<()> {
             if let Some(t) = truth {
                 cfg = cfg.with_truth(t).map_err(|e| e.to_string())?;
             }
+            if experiment != "model" && (modes_record.is_some() || inertia_record.is_some()) {
+                return Err(format!(
+                    "--modes-record and --inertia-record are for `identify model`, not `{experiment}` (it takes --record)"
+                ));
+            }
             if experiment != "friction" {
                 use flexarm_sim::identify::workflow;
                 let dir = OutDir::open(&out, "identify", force)?;
@@ -441,20 +456,25 @@ fn main_result(cli: Cli) -> Result<()> {
                     dir: dir.staging(),
                     plots: !no_plots,
                 };
+                let nominal = (
+                    &flexarm_core::params::ArmParams::default(),
+                    &flexarm_core::control::piezo::PiezoPatch::paper(),
+                );
                 let report = match experiment.as_str() {
+                    "model" => {
+                        let (Some(m), Some(i)) = (&modes_record, &inertia_record) else {
+                            return Err(
+                                "model: give both --modes-record and --inertia-record".into()
+                            );
+                        };
+                        workflow::model_from_records(&b, m, i, nominal)?
+                    }
                     "modes" => workflow::modes_step(&b, record.as_deref(), seconds)?.1,
                     "inertia" => workflow::inertia_step(&b, record.as_deref())?.1,
                     _ if record.is_some() => {
                         return Err("--record: `all` runs every experiment itself; fit a recording with `modes` or `inertia`".into());
                     }
-                    _ => workflow::all(
-                        &b,
-                        (
-                            &flexarm_core::params::ArmParams::default(),
-                            &flexarm_core::control::piezo::PiezoPatch::paper(),
-                        ),
-                        seconds,
-                    )?,
+                    _ => workflow::all(&b, nominal, seconds)?,
                 };
                 let files = dir.commit()?;
                 println!("{report}\nWrote {}: {}.", out.display(), files.join(", "));

@@ -739,3 +739,29 @@ fn identify_modes_fits_a_run_or_a_recording() {
         );
     }
 }
+
+/// `identify model` needs both records, and the records' options belong to it alone: one line
+/// each, nothing written.
+#[test]
+fn identify_model_asks_for_both_records() {
+    for (args, needle) in [
+        (
+            &["identify", "model"][..],
+            "give both --modes-record and --inertia-record",
+        ),
+        (
+            &["identify", "modes", "--modes-record", "x.csv"][..],
+            "are for `identify model`",
+        ),
+    ] {
+        let bad = fresh_dir("identify-model-bad");
+        let (ok, _, stderr) = sim(&[args, &["--out", bad.to_str().unwrap()][..]].concat());
+        assert!(!ok && stderr.lines().count() == 1, "{stderr}");
+        assert!(stderr.contains(needle), "{stderr}");
+        assert!(
+            !bad.exists() || names_in(&bad).is_empty(),
+            "wrote {:?}",
+            names_in(&bad)
+        );
+    }
+}

@@ -142,8 +142,6 @@ pub struct SimBoard {
     frozen: Option<f32>,
     /// The clock at the last tick.
     last_tick: Option<u32>,
-    /// Clock counts passed and not yet stepped (less than a period).
-    pending: u32,
 }
 
 impl SimBoard {
@@ -159,7 +157,6 @@ impl SimBoard {
             steps: 0,
             frozen: None,
             last_tick: None,
-            pending: 0,
         }
     }
 }
@@ -245,23 +242,18 @@ impl Board for SimBoard {
     fn motor_period(&mut self, t: f32) {
         self.run.observe(&self.arm, self.diverged, t);
     }
-    /// One plant step per piezo period of clock time passed since the last tick, the remainder
-    /// carried: the plant keeps the clock's (virtual) time. QEMU re-arms the piezo timer from
-    /// its callback, so under `sleep=off` its periods are 1.03 of nominal, and a step per
-    /// interrupt left the plant 3 % behind the motor loop's clock (the modes 2.4 % low,
-    /// docs/firmware.md); its real-time mode (`-icount sleep=on`: `scripts/qemu-serve`, the
-    /// link's flood session) drops interrupts under the host's load (426 piezo periods in a
-    /// second of 1000).
+    /// One plant step per piezo period that has passed since the last tick: one, except when
+    /// QEMU's real-time mode (`-icount sleep=on`: `scripts/qemu-serve`, the link's flood
+    /// session) drops timer interrupts under the host's load, which left the arm standing still
+    /// for up to half of the board's time (426 piezo periods in a second of 1000). Under
+    /// `sleep=off` a period is 1.03 of its nominal length (docs/firmware.md), which rounds to one.
     fn tick(&mut self) {
         let now = crate::clock::now();
-        let elapsed = self
-            .last_tick
-            .map_or(PIEZO_PERIOD_COUNTS, |last| now.wrapping_sub(last));
+        let periods = self.last_tick.map_or(1, |last| {
+            (now.wrapping_sub(last) + PIEZO_PERIOD_COUNTS / 2) / PIEZO_PERIOD_COUNTS
+        });
         self.last_tick = Some(now);
-        let due = self.pending.saturating_add(elapsed);
-        let periods = due / PIEZO_PERIOD_COUNTS;
-        self.pending = due - periods * PIEZO_PERIOD_COUNTS;
-        for _ in 0..periods.min(MAX_CATCH_UP) {
+        for _ in 0..periods.clamp(1, MAX_CATCH_UP) {
             self.step_plant();
         }
     }

@@ -15,17 +15,21 @@
 //! the experiment stays well below the first mode.
 //!
 //! ## The experiment and the fit
-//! Both joints follow sums of sines (0.15 to 0.9 Hz, phases spread, faded in and out over
-//! 2 s) about a pose: the regressor's columns are then independent. The encoders' angles are
-//! differentiated in the frequency domain (the record starts and ends at rest, so its
-//! periodic extension is smooth), and the angles' derivatives and the torques pass the same
-//! low-pass (a raised-cosine taper from 2 to 4 Hz) to remove the encoders' quantization
-//! and the link's ringing. The seven parameters `(A, J, S, F_c1, F_v1, F_c2, F_v2)` come from one least-squares
-//! fit of both joints' equations over every sample.
+//! Both joints move together through random rest-to-rest trapezoids about a pose (joint 1
+//! within ±0.5 rad, joint 2 within ±1 rad, so that `cos θ2` varies; 1 to 2.5 s each, within a
+//! drive's acceleration limit): the regressor's columns are then independent, and a drive runs
+//! each move as any `move trapezoid`, the simulator the same moves with a hold of [`GAP`]
+//! between them as a host's round trips leave. The encoders' angles are differentiated in the
+//! frequency domain (the record starts and ends at rest at the pose, so its periodic extension
+//! is smooth) through a low-pass (a raised-cosine taper from 2 to 4 Hz) that removes the
+//! encoders' quantization and the link's ringing; the regressor's columns and the torques pass
+//! the same low-pass, so that the equation holds between the filtered sides. The seven
+//! parameters `(A, J, S, F_c1, F_v1, F_c2, F_v2)` come from one least-squares fit of both
+//! joints' equations over every sample.
 
 use flexarm_core::Vector2;
 use flexarm_core::params::ArmParams;
-use flexarm_core::trajectory::{Cubic, JointTrajectory};
+use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
 use nalgebra::{DMatrix, DVector};
 use rustfft::FftPlanner;
 use rustfft::num_complex::Complex64;
@@ -90,84 +94,102 @@ pub struct InertiaFit {
 /// The exciting motion's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InertiaPlan {
-    /// The pose the sines are about [rad].
+    /// The pose the moves are about [rad].
     pub pose: Vector2<f64>,
-    /// Each joint's amplitude scale [rad].
+    /// Joint 1's reach about the pose [rad] (joint 2's is [`JOINT2_SCALE`] times it).
     pub amplitude: f64,
-    /// Length [s].
-    pub seconds: f64,
+    /// Moves.
+    pub moves: usize,
+    /// Seed of the random targets and durations.
+    pub seed: u64,
 }
 
 impl Default for InertiaPlan {
-    /// ±0.4 rad about `(0, 0.5)` for 40 s.
+    /// 30 moves within ±0.5 rad (joint 2 ±1 rad) of `(0, 0.5)`.
     fn default() -> Self {
         Self {
             pose: Vector2::new(0.0, 0.5),
-            amplitude: 0.4,
-            seconds: 40.0,
+            amplitude: 0.5,
+            moves: 30,
+            seed: 11,
         }
     }
 }
 
-/// The sines' frequencies [Hz] and phases [rad] per joint.
-const SINES: [[(f64, f64); 4]; 2] = [
-    [(0.15, 0.0), (0.35, 1.3), (0.6, 2.9), (0.9, 4.1)],
-    [(0.2, 0.7), (0.45, 2.2), (0.75, 3.6), (0.85, 5.0)],
-];
-/// Fade in and out [s].
-const FADE: f64 = 2.0;
-/// Knots of the cubic segments [s].
-const KNOT: f64 = 0.05;
+/// Joint 2's reach against joint 1's: a wide swing of `θ2` makes `cos θ2` vary, which tells
+/// `S` from `A` and `J`.
+pub const JOINT2_SCALE: f64 = 2.0;
+/// The simulator's hold between two moves [s] (a host's round trips).
+pub const GAP: f64 = 0.3;
+/// The moves' peak acceleration at most [rad/s²] (a drive's limit is 10).
+const ACCEL_MAX: f64 = 8.0;
 
-/// The exciting motion's angle at `t` [s].
-pub fn excitation(plan: &InertiaPlan, t: f64) -> Vector2<f64> {
-    let env = |t: f64| {
-        let u = (t.min(plan.seconds - t) / FADE).clamp(0.0, 1.0);
-        (std::f64::consts::FRAC_PI_2 * u).sin().powi(2)
-    };
-    let tau = std::f64::consts::TAU;
-    let joint = |j: usize| {
-        SINES[j]
-            .iter()
-            .map(|(f, p)| (tau * f * t + p).sin() - p.sin())
-            .sum::<f64>()
-            * plan.amplitude
-            / 4.0
-    };
-    plan.pose + Vector2::new(joint(0), joint(1)) * env(t)
+/// One move of the experiment: its target [rad] and duration [s] (ramps of a third).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InertiaMove {
+    /// Where it ends [rad].
+    pub target: Vector2<f64>,
+    /// How long it takes [s].
+    pub time: f64,
 }
 
-/// The exciting motion as cubic segments every [`KNOT`] seconds, each from its own `t = 0`.
-pub fn segments(plan: &InertiaPlan) -> Result<Vec<(f64, JointTrajectory<f32>)>, IdentifyError> {
-    if !(plan.seconds.is_finite() && (2.0 * FADE + 5.0..=600.0).contains(&plan.seconds)) {
+/// The moves: random targets about the pose, 1 to 2.5 s each (longer where the acceleration
+/// limit asks), the last back to the pose.
+pub fn moves(plan: &InertiaPlan) -> Result<Vec<InertiaMove>, IdentifyError> {
+    if !(2..=200).contains(&plan.moves) {
         return Err(IdentifyError::Data(format!(
-            "an excitation of {} s: give {} to 600 s",
-            plan.seconds,
-            2.0 * FADE + 5.0
+            "{} moves: give 2 to 200",
+            plan.moves
         )));
     }
-    if !(plan.amplitude.is_finite() && plan.amplitude > 0.0 && plan.amplitude <= 1.0) {
+    if !(plan.amplitude.is_finite() && plan.amplitude > 0.0 && plan.amplitude <= 1.2) {
         return Err(IdentifyError::Data(format!(
-            "an amplitude of {} rad: give (0, 1] rad",
+            "a reach of {} rad: give (0, 1.2] rad",
             plan.amplitude
         )));
     }
-    let h = 1e-5;
-    let speed = |t: f64| (excitation(plan, t + h) - excitation(plan, t - h)) / (2.0 * h);
-    let n = (plan.seconds / KNOT).round() as usize;
-    Ok((0..n)
+    let mut rng = crate::sim::Rng::new(plan.seed);
+    let reach = Vector2::new(plan.amplitude, JOINT2_SCALE * plan.amplitude);
+    let mut from = plan.pose;
+    Ok((0..plan.moves)
         .map(|k| {
-            let (t0, t1) = (k as f64 * KNOT, (k + 1) as f64 * KNOT);
-            let c = Cubic {
-                start: excitation(plan, t0).cast::<f32>(),
-                end: excitation(plan, t1).cast::<f32>(),
-                v0: speed(t0).cast::<f32>(),
-                v1: speed(t1).cast::<f32>(),
-                duration: KNOT as f32,
+            let target = if k + 1 == plan.moves {
+                plan.pose
+            } else {
+                plan.pose + reach.map(|r| r * (2.0 * rng.uniform() - 1.0))
             };
-            (t0, JointTrajectory::Cubic(c))
+            // A trapezoid with ramps of a third peaks at 4.5 |Δθ| / T².
+            let least = (4.5 * (target - from).abs().max() / ACCEL_MAX).sqrt();
+            let time = (1.0 + 1.5 * rng.uniform()).max(least);
+            from = target;
+            InertiaMove { target, time }
         })
         .collect())
+}
+
+/// The trajectories the drive runs for the moves from the pose, each from its own `t = 0`,
+/// with [`GAP`] of hold after each.
+pub fn segments(plan: &InertiaPlan) -> Result<Vec<(f64, JointTrajectory<f32>)>, IdentifyError> {
+    let mut from = plan.pose;
+    let mut t = 0.0;
+    let mut out = Vec::new();
+    for m in moves(plan)? {
+        let profile = Profile::new(m.time as f32, (m.time / 3.0) as f32)
+            .map_err(|e| IdentifyError::Data(format!("a move of {} s: {e:?}", m.time)))?;
+        out.push((
+            t,
+            JointTrajectory::Trapezoid(Trapezoid {
+                start: from.cast::<f32>(),
+                amplitude: (m.target - from).cast::<f32>(),
+                profile,
+            }),
+        ));
+        t += m.time;
+        out.push((t, JointTrajectory::Hold(m.target.cast::<f32>())));
+        t += GAP;
+        from = m.target;
+    }
+    Ok(out)
 }
 
 /// Runs the exciting motion on the simulator; the trace's angles are the encoders' readings.
@@ -176,8 +198,9 @@ pub fn inertia_experiment(
     plan: &InertiaPlan,
 ) -> Result<Vec<Sample>, IdentifyError> {
     let segs = segments(plan)?;
+    let end = segs.last().map_or(0.0, |s| s.0) + GAP;
     let run = SimConfig {
-        duration: plan.seconds,
+        duration: end,
         tail_window: 1.0,
         ..*cfg
     };
@@ -232,7 +255,7 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
             trace.len()
         )));
     }
-    let dt = (trace[trace.len() - 1].t - trace[0].t) / (trace.len() - 1) as f64;
+    let dt = super::even_period(trace)?;
     let ch = |f: &dyn Fn(&Sample) -> f64| -> Vec<f64> { trace.iter().map(f).collect() };
     let th = [ch(&|s| s.x.q.x), ch(&|s| s.x.q.y)];
     if th
@@ -252,28 +275,44 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
     let pos = [derivative(&th[0], dt, 0), derivative(&th[1], dt, 0)];
     let vel = [derivative(&th[0], dt, 1), derivative(&th[1], dt, 1)];
     let acc = [derivative(&th[0], dt, 2), derivative(&th[1], dt, 2)];
+    // The regressor's columns, each through the low-pass the torques took: its products of
+    // angles, speeds and accelerations reach past the band, and the equation holds only when
+    // both sides are filtered alike.
+    let n = trace.len();
+    let sg = |v: f64| (v / 0.01).tanh();
+    let column = |f: &dyn Fn(usize) -> f64| derivative(&(0..n).map(f).collect::<Vec<_>>(), dt, 0);
+    let zero = vec![0.0; n];
+    let y1: [Vec<f64>; 7] = [
+        column(&|k| acc[0][k]),
+        column(&|k| acc[0][k] + acc[1][k]),
+        column(&|k| {
+            let (c2, s2) = (pos[1][k].cos(), pos[1][k].sin());
+            c2 * (2.0 * acc[0][k] + acc[1][k])
+                - s2 * (2.0 * vel[0][k] * vel[1][k] + vel[1][k] * vel[1][k])
+        }),
+        column(&|k| sg(vel[0][k])),
+        column(&|k| vel[0][k]),
+        zero.clone(),
+        zero.clone(),
+    ];
+    let y2: [Vec<f64>; 7] = [
+        zero.clone(),
+        y1[1].clone(),
+        column(&|k| pos[1][k].cos() * acc[0][k] + pos[1][k].sin() * vel[0][k] * vel[0][k]),
+        zero.clone(),
+        zero,
+        column(&|k| sg(vel[1][k])),
+        column(&|k| vel[1][k]),
+    ];
     // The fade's ends, where the filters' periodic extension joins, are left out.
     let skip = (1.0 / dt) as usize;
-    let rows: Vec<usize> = (skip..trace.len().saturating_sub(skip)).collect();
+    let rows: Vec<usize> = (skip..n.saturating_sub(skip)).collect();
     let mut a = DMatrix::<f64>::zeros(2 * rows.len(), 7);
     let mut b = DVector::<f64>::zeros(2 * rows.len());
     for (r, &k) in rows.iter().enumerate() {
-        let (c2, s2) = (pos[1][k].cos(), pos[1][k].sin());
-        let (v1, v2, a1, a2) = (vel[0][k], vel[1][k], acc[0][k], acc[1][k]);
-        let sg = |v: f64| (v / 0.01).tanh();
-        let r1 = [
-            a1,
-            a1 + a2,
-            c2 * (2.0 * a1 + a2) - s2 * (2.0 * v1 * v2 + v2 * v2),
-            sg(v1),
-            v1,
-            0.0,
-            0.0,
-        ];
-        let r2 = [0.0, a1 + a2, c2 * a1 + s2 * v1 * v1, 0.0, 0.0, sg(v2), v2];
         for c in 0..7 {
-            a[(2 * r, c)] = r1[c];
-            a[(2 * r + 1, c)] = r2[c];
+            a[(2 * r, c)] = y1[c][k];
+            a[(2 * r + 1, c)] = y2[c][k];
         }
         b[2 * r] = tau[0][k];
         b[2 * r + 1] = tau[1][k];

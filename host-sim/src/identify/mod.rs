@@ -38,3 +38,26 @@ impl std::fmt::Display for IdentifyError {
 }
 
 impl std::error::Error for IdentifyError {}
+
+/// The sampling period of `trace` [s], which must be even: a gap (lost frames) is refused with
+/// its time.
+pub fn even_period(trace: &[crate::sim::Sample]) -> Result<f64, IdentifyError> {
+    let (Some(a), Some(b)) = (trace.first(), trace.get(1)) else {
+        return Err(IdentifyError::Data(
+            "the record holds fewer than two samples".into(),
+        ));
+    };
+    let dt = b.t - a.t;
+    if let Some(w) = trace.windows(2).find(|w| {
+        let gap = w[1].t - w[0].t;
+        gap.is_nan() || (gap - dt).abs() > 0.25 * dt
+    }) {
+        return Err(IdentifyError::Data(format!(
+            "the record is not sampled evenly: {:.4} s between the samples at {:.4} s and {:.4} s, {dt:.4} s elsewhere (lost frames?)",
+            w[1].t - w[0].t,
+            w[0].t,
+            w[1].t
+        )));
+    }
+    Ok(dt)
+}

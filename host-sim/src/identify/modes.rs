@@ -192,23 +192,7 @@ impl ModesRecord {
         v_f_range: f64,
         v_a_window: (f64, f64),
     ) -> Result<Self, IdentifyError> {
-        let (Some(a), Some(b)) = (trace.first(), trace.get(1)) else {
-            return Err(IdentifyError::Data(
-                "the record holds fewer than two samples".into(),
-            ));
-        };
-        let dt = b.t - a.t;
-        if let Some(w) = trace
-            .windows(2)
-            .find(|w| ((w[1].t - w[0].t) - dt).abs() > 0.25 * dt)
-        {
-            return Err(IdentifyError::Data(format!(
-                "the record is not sampled evenly: {:.4} s between the samples at {:.4} s and {:.4} s, {dt:.4} s elsewhere (lost frames?)",
-                w[1].t - w[0].t,
-                w[0].t,
-                w[1].t
-            )));
-        }
+        let dt = super::even_period(trace)?;
         Ok(Self {
             dt,
             v_a: trace.iter().map(|x| x.v_a).collect(),

@@ -119,25 +119,37 @@ pub fn inertia_step(b: &Bench, record: Option<&Path>) -> Result<(InertiaFit, Str
     let trace = record_or_run(b, record, "inertia", || {
         inertia::inertia_experiment(b.cfg, &InertiaPlan::default())
     })?;
-    let fit = inertia::fit_inertia(&trace).map_err(|e| match record {
-        Some(p) => format!("{}: {e}", p.display()),
-        None => e.to_string(),
-    })?;
     let truth = b.known.then(|| Rigid::of(&b.cfg.arm));
+    save_inertia(b.dir, &trace, truth).map_err(|e| match record {
+        Some(p) => format!("{}: {e}", p.display()),
+        None => e,
+    })
+}
+
+/// Fits the inertia record `trace` and writes `inertia.md` into `dir` (against `truth` when
+/// known). Returns the fit and the report.
+pub fn save_inertia(
+    dir: &Path,
+    trace: &[Sample],
+    truth: Option<Rigid>,
+) -> Result<(InertiaFit, String), String> {
+    let fit = inertia::fit_inertia(trace).map_err(|e| e.to_string())?;
     let text = format!(
-        "# The rigid inertias\n\nBoth joints following sums of sines (0.15–0.9 Hz) about (0, 0.5) rad; least squares on the regressor (`docs/identification.md`).\n\n{}",
+        "# The rigid inertias\n\nBoth joints through random rest-to-rest trapezoids about (0, 0.5) rad; least squares on the regressor (`docs/identification.md`).\n\n{}",
         report::inertia_report(&fit, truth)
     );
-    write(b.dir, "inertia.md", &text)?;
+    write(dir, "inertia.md", &text)?;
     Ok((fit, text))
 }
 
 /// The piezo gain of the closed-loop check and of the generated model: the spillover study's
 /// design rule for the truth plant's link (`host-sim/scenarios/trapezoid_truth.toml`).
 pub const CHECK_PIEZO: PiezoGains<f32> = PiezoGains {
-    k_c: 3.162,
+    k_c: CHECK_K_C as f32,
     cutoff_hz: 30.0,
 };
+/// [`CHECK_PIEZO`]'s `k_c` [s], as the model file writes it.
+pub const CHECK_K_C: f64 = 3.162;
 
 /// Every step on the simulator, from the `nominal` arm and patch a user starts from; then
 /// `model.toml` and the closed-loop check (`verify.md`). Returns the report.
@@ -170,7 +182,7 @@ pub fn all(
     write(
         b.dir,
         "model.toml",
-        &model::model_fragment(&arm, &patch, f64::from(CHECK_PIEZO.k_c)),
+        &model::model_fragment(&arm, &patch, CHECK_K_C),
     )?;
     let check = SimConfig {
         piezo: Some(CHECK_PIEZO),
@@ -192,4 +204,25 @@ pub fn all(
     );
     write(b.dir, "verify.md", &v_text)?;
     Ok(format!("{f_text}\n{m_text}\n{i_text}\n{v_text}"))
+}
+
+/// The model from a board's records: the modes fit of `modes_record` and the inertia fit of
+/// `inertia_record` (trace CSVs, `flexarm identify modes|inertia`), on the `nominal` arm and
+/// patch; writes their reports and `model.toml`. Returns the report.
+pub fn model_from_records(
+    b: &Bench,
+    modes_record: &Path,
+    inertia_record: &Path,
+    nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
+) -> Result<String, String> {
+    let (modes, m_text) = modes_step(b, Some(modes_record), 0.0)?;
+    let (inertia, i_text) = inertia_step(b, Some(inertia_record))?;
+    let (arm, patch) = identified_model(nominal.0, nominal.1, &inertia.rigid, &modes.modes)
+        .map_err(|e| e.to_string())?;
+    write(
+        b.dir,
+        "model.toml",
+        &model::model_fragment(&arm, &patch, CHECK_K_C),
+    )?;
+    Ok(format!("{m_text}\n{i_text}"))
 }
