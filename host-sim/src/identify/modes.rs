@@ -12,8 +12,8 @@
 //! `α̈ = θ̈1 + θ̈2`, so the film is a two-input system
 //! `V_f = Σ_j (g_j V_a − c_j α̈) HP(s) / (s² + 2ζ_jω_j s + ω_j²)` with
 //! `g_j = k_a k_s Δφ'_j²` (the piezo→film product the issue asks per mode) and
-//! `c_j = k_s Δφ'_j w_j`. The fit takes the encoders' `α = θ1 + θ2` as the input (its
-//! response carries the factor `s²`).
+//! `c_j = k_s Δφ'_j w_j`. The fit takes the encoders' `α = θ1 + θ2`, differenced twice, as
+//! the second input.
 //!
 //! ## The experiment
 //! At the pose `(θ1, θ2) = (0, π/2)` rad, the piezo loop off (`k_c = 0`), blocks of
@@ -21,9 +21,9 @@
 //! random between `±piezo_volts` (a new level every 20 to 120 ms: on a board each is one
 //! parameter write, and a drive takes the bias only while holding); in the next the bias is 0
 //! while joint 2's reference makes random small moves (`±tap` rad about the pose, 0.15 to
-//! 0.5 s each, longer where a drive's acceleration limit asks, the last back to the pose): the servo's torque pulses shake the link's base. The
-//! two inputs are then excited apart, and the responses hold across the blocks (the system is
-//! the same). The record is the patch's command, the film ADC and both encoders at the motor
+//! 0.5 s each, longer where a drive's acceleration limit asks, the last back to the pose): the
+//! servo's torque pulses shake the link's base. The two inputs are then excited apart, and the
+//! responses hold across the blocks (the system is the same). The record is the patch's command, the film ADC and both encoders at the motor
 //! rate.
 //!
 //! ## The patch's command between samples
@@ -278,15 +278,15 @@ pub struct ModesFit {
     pub modes: Vec<IdentifiedMode>,
     /// The film amplifier's high-pass corner the fit found [Hz], if any.
     pub highpass_hz: Option<f64>,
-    /// The measured responses (inputs: `V_a`, `α = θ1 + θ2`).
+    /// The measured responses (inputs: `V_a`, `α̈ = θ̈1 + θ̈2`).
     pub frf: Frf,
     /// The rational fit.
     pub fit: RationalFit,
 }
 
-/// Fits the record: the responses of `V_f` to `V_a` and to `α = θ1 + θ2`, then `D` of degree
-/// `2·modes + 1` (the modes and the film's high-pass) with numerators of degree `2·modes + 3`
-/// (piezo) and `2·modes + 5` (base: `s²` more), which carry the modes above the band.
+/// Fits the record: the responses of `V_f` to `V_a` and to `α̈ = θ̈1 + θ̈2`, then `D` of
+/// degree `2·modes + 1` (the modes and the film's high-pass) with numerators of degree
+/// `2·modes + 3`, which carry the modes above the band.
 pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, IdentifyError> {
     check(rec, set)?;
     // Every channel through the same first difference (it leaves the responses as they are and
