@@ -10,21 +10,17 @@ use std::time::Duration;
 use flexarm_core::Vector2;
 use flexarm_core::trajectory::JointTrajectory;
 use flexarm_link::Command;
-use flexarm_link::msg::{Mode, Move, Param};
+use flexarm_link::msg::{Mode, Move, Param, Telemetry};
 use flexarm_sim::identify::inertia::{self, InertiaPlan};
-use flexarm_sim::identify::modes::{Excitation, ModesPlan, excitation};
+use flexarm_sim::identify::modes::{ModesPlan, excitation};
 use flexarm_sim::identify::{self, Cruise, Friction};
 use flexarm_sim::sim::Sample;
 
 use crate::client::{Client, ConsoleError};
 use crate::{fault_name, interrupt, record};
 
-/// Runs the experiment on the holding arm: every joint's cruises and fits.
-pub fn friction(
-    c: &mut Client,
-    speeds: &[f64],
-    cruise: f64,
-) -> Result<(Vec<Cruise>, [Friction; 2]), ConsoleError> {
+/// The experiments start from a holding arm.
+fn holding(c: &mut Client) -> Result<(), ConsoleError> {
     let s = c.status()?;
     if s.mode != Mode::Armed {
         return Err(ConsoleError::Usage(format!(
@@ -32,89 +28,42 @@ pub fn friction(
             s.mode
         )));
     }
-    if speeds.is_empty()
-        || speeds
-            .iter()
-            .any(|v| !(v.is_finite() && *v > 0.0 && *v <= 3.0))
-    {
-        return Err(ConsoleError::Usage("--speeds: each in (0, 3] rad/s".into()));
-    }
-    let motor_hz = f64::from(c.hello.motor_hz.max(1));
-    c.subscribe_fastest(1)?;
-    let model = record::paper_model();
-    let mut frames = interrupt::collect(c, 0.0)?;
-    let held = frames.last().map_or(Vector2::zeros(), |f| {
-        let v = record::values(f);
-        Vector2::new(v.reference(0), v.reference(1))
-    });
-    let mut cruises = Vec::new();
-    for joint in 0..2 {
-        for &v in speeds {
-            for leg in identify::legs(held, joint, v, cruise)
-                .map_err(|e| ConsoleError::Usage(e.to_string()))?
-            {
-                let what = format!("joint {} at {v} rad/s", joint + 1);
-                let m = Move::Trapezoid {
-                    target: [leg.target.x as f32, leg.target.y as f32],
-                    move_time: leg.time as f32,
-                    ramp_time: leg.ramp as f32,
-                };
-                c.done(&what, Command::Move(m))?;
-                frames.clear();
-                let ended =
-                    interrupt::follow_move(c, &what, &mut frames, Some(Duration::from_secs(60)))?;
-                if ended.mode != Mode::Armed {
-                    return Err(ConsoleError::Unexpected(format!(
-                        "{what}: the move ended in {}",
-                        ended.fault.map_or("the drive disarmed".into(), |f| format!(
-                            "fault {f} ({})",
-                            fault_name(f)
-                        ))
-                    )));
-                }
-                // The move's start: the last frame before the reference leaves the start pose.
-                let start = frames
-                    .windows(2)
-                    .find(|w| {
-                        (record::values(&w[1]).reference(joint) - leg.start[joint]).abs() > 1e-6
-                    })
-                    .map_or(0, |w| w[0].tick);
-                let trace: Vec<_> = frames
-                    .iter()
-                    .filter(|f| f.tick >= start)
-                    .filter_map(|f| record::sample(f, (f.tick - start) as f64 / motor_hz, &model))
-                    .collect();
-                cruises.push(
-                    identify::cruise_of(&trace, joint, leg.window)
-                        .map_err(|e| ConsoleError::Unexpected(format!("{what}: {e}")))?,
-                );
-                println!(
-                    "identify: {what}: {:+.4} rad/s, {:+.5} N·m",
-                    cruises.last().map_or(0.0, |c| c.speed),
-                    cruises.last().map_or(0.0, |c| c.torque)
-                );
-            }
-        }
-    }
-    let _ = c.ask(Command::Unsubscribe)?;
-    let fits =
-        identify::fit_joints(&cruises).map_err(|e| ConsoleError::Unexpected(e.to_string()))?;
-    Ok((cruises, fits))
+    Ok(())
 }
 
-/// A move of the experiments to `target` in `time` seconds (ramps of a third), followed to its
-/// end with the telemetry kept in `frames`; an error unless the drive ends holding.
+/// The pose the drive holds in the last of `frames` [rad] (its reference).
+fn held(frames: &[Telemetry]) -> Vector2<f64> {
+    frames.last().map_or(Vector2::zeros(), |f| {
+        let v = record::values(f);
+        Vector2::new(v.reference(0), v.reference(1))
+    })
+}
+
+/// `frames` from the tick `from` on as samples, their time from that tick.
+fn samples(c: &Client, frames: &[Telemetry], from: u64) -> Vec<Sample> {
+    let motor_hz = f64::from(c.hello.motor_hz.max(1));
+    let model = record::paper_model();
+    frames
+        .iter()
+        .filter(|f| f.tick >= from)
+        .filter_map(|f| record::sample(f, (f.tick - from) as f64 / motor_hz, &model))
+        .collect()
+}
+
+/// A trapezoid to `target` in `time` seconds with `ramp` seconds of acceleration at each end,
+/// followed to its end with the telemetry kept in `frames`; an error unless the drive ends
+/// holding.
 fn run_move(
     c: &mut Client,
     what: &str,
     target: Vector2<f64>,
-    time: f64,
-    frames: &mut Vec<flexarm_link::msg::Telemetry>,
+    (time, ramp): (f64, f64),
+    frames: &mut Vec<Telemetry>,
 ) -> Result<(), ConsoleError> {
     let m = Move::Trapezoid {
         target: [target.x as f32, target.y as f32],
         move_time: time as f32,
-        ramp_time: (time / 3.0) as f32,
+        ramp_time: ramp as f32,
     };
     c.done(what, Command::Move(m))?;
     let ended = interrupt::follow_move(c, what, frames, Some(Duration::from_secs(60)))?;
@@ -130,19 +79,74 @@ fn run_move(
     Ok(())
 }
 
+/// Moves the holding arm to `pose` (at most 0.5 rad/s, at least 2 s, ramps of a third) and
+/// returns the telemetry from half a second of holding there on (the caller has subscribed).
+fn to_pose(c: &mut Client, pose: Vector2<f64>) -> Result<Vec<Telemetry>, ConsoleError> {
+    let distance = (pose - held(&interrupt::collect(c, 0.0)?)).abs().max();
+    if distance > 1e-3 {
+        let time = (distance / 0.5).max(2.0);
+        run_move(
+            c,
+            "the move to the pose",
+            pose,
+            (time, time / 3.0),
+            &mut Vec::new(),
+        )?;
+    }
+    interrupt::collect(c, 0.5)
+}
+
+/// Runs the experiment on the holding arm: every joint's cruises and fits.
+pub fn friction(
+    c: &mut Client,
+    speeds: &[f64],
+    cruise: f64,
+) -> Result<(Vec<Cruise>, [Friction; 2]), ConsoleError> {
+    holding(c)?;
+    identify::check_speeds(speeds).map_err(|e| ConsoleError::Usage(format!("--speeds: {e}")))?;
+    c.subscribe_fastest(1)?;
+    let mut frames = interrupt::collect(c, 0.0)?;
+    let from = held(&frames);
+    let mut cruises = Vec::new();
+    for joint in 0..2 {
+        for &v in speeds {
+            for leg in identify::legs(from, joint, v, cruise)
+                .map_err(|e| ConsoleError::Usage(e.to_string()))?
+            {
+                let what = format!("joint {} at {v} rad/s", joint + 1);
+                frames.clear();
+                run_move(c, &what, leg.target, (leg.time, leg.ramp), &mut frames)?;
+                // The move's start: the last frame before the reference leaves the start pose.
+                let start = frames
+                    .windows(2)
+                    .find(|w| {
+                        (record::values(&w[1]).reference(joint) - leg.start[joint]).abs() > 1e-6
+                    })
+                    .map_or(0, |w| w[0].tick);
+                let cruise = identify::cruise_of(&samples(c, &frames, start), joint, leg.window)
+                    .map_err(|e| ConsoleError::Unexpected(format!("{what}: {e}")))?;
+                println!(
+                    "identify: {what}: {:+.4} rad/s, {:+.5} N·m",
+                    cruise.speed, cruise.torque
+                );
+                cruises.push(cruise);
+            }
+        }
+    }
+    let _ = c.ask(Command::Unsubscribe)?;
+    let fits =
+        identify::fit_joints(&cruises).map_err(|e| ConsoleError::Unexpected(e.to_string()))?;
+    Ok((cruises, fits))
+}
+
 /// The modes experiment (`flexarm_sim::identify::modes`) on the holding arm: a move to the
 /// plan's pose, then its blocks (the patch's bias steps while holding, each one parameter
 /// write; joint 2's moves, each one `move trapezoid`), the piezo loop off throughout (`k_c`
 /// written back at the end, and the bias back to 0 on every path). Returns the record, one
-/// sample per telemetry frame; lost frames are refused by the fit.
-pub fn modes(c: &mut Client, plan: &ModesPlan) -> Result<Vec<Sample>, ConsoleError> {
-    let s = c.status()?;
-    if s.mode != Mode::Armed {
-        return Err(ConsoleError::Usage(format!(
-            "identify runs on a holding arm (the drive is {:?}): `flexarm arm` first",
-            s.mode
-        )));
-    }
+/// sample per telemetry frame (lost frames are refused by the fit), and the amplifier's window
+/// [V] the steps stayed inside.
+pub fn modes(c: &mut Client, plan: &ModesPlan) -> Result<(Vec<Sample>, (f64, f64)), ConsoleError> {
+    holding(c)?;
     let ex = excitation(plan).map_err(|e| ConsoleError::Usage(e.to_string()))?;
     let window = (c.get(Param::VaMin)?, c.get(Param::VaMax)?);
     let volts = plan.piezo_volts as f32;
@@ -152,6 +156,7 @@ pub fn modes(c: &mut Client, plan: &ModesPlan) -> Result<Vec<Sample>, ConsoleErr
             window.0, window.1
         )));
     }
+    c.subscribe_fastest(1)?;
     let k_c = c.get(Param::Kc)?;
     c.set(Param::Kc, 0.0)?;
     let outcome = modes_blocks(c, plan, &ex);
@@ -161,17 +166,14 @@ pub fn modes(c: &mut Client, plan: &ModesPlan) -> Result<Vec<Sample>, ConsoleErr
     }
     let _ = c.ask(Command::Unsubscribe)?;
     c.set(Param::Kc, k_c)?;
-    outcome
+    Ok((outcome?, (f64::from(window.0), f64::from(window.1))))
 }
 
 fn modes_blocks(
     c: &mut Client,
     plan: &ModesPlan,
-    ex: &Excitation,
+    ex: &identify::modes::Excitation,
 ) -> Result<Vec<Sample>, ConsoleError> {
-    c.subscribe_fastest(1)?;
-    let motor_hz = f64::from(c.hello.motor_hz.max(1));
-    let model = record::paper_model();
     let mut frames = to_pose(c, plan.pose)?;
     // The timeline: the bias steps and the moves in the plan's order.
     let (mut b, mut m) = (0, 0);
@@ -188,37 +190,27 @@ fn modes_blocks(
         } else {
             let (_, traj) = ex.moves[m];
             m += 1;
+            // The holds between the moves' blocks are the drive's own.
             if let JointTrajectory::Trapezoid(tr) = traj {
                 let target = (tr.start + tr.amplitude).cast::<f64>();
-                let what = format!("move {m} of the modes experiment");
-                run_move(
-                    c,
-                    &what,
-                    target,
+                let timing = (
                     f64::from(tr.profile.duration()),
-                    &mut frames,
-                )?;
+                    f64::from(tr.profile.ramp()),
+                );
+                let what = format!("move {m} of the modes experiment");
+                run_move(c, &what, target, timing, &mut frames)?;
             }
         }
     }
-    let t0 = frames.first().map_or(0, |f| f.tick);
-    Ok(frames
-        .iter()
-        .filter_map(|f| record::sample(f, (f.tick - t0) as f64 / motor_hz, &model))
-        .collect())
+    let from = frames.first().map_or(0, |f| f.tick);
+    Ok(samples(c, &frames, from))
 }
 
 /// The inertia experiment (`flexarm_sim::identify::inertia`) on the holding arm: a move to the
 /// plan's pose, then its moves one after another, each a `move trapezoid` the drive validates.
 /// Returns the record, one sample per telemetry frame; lost frames are refused by the fit.
 pub fn inertia(c: &mut Client, plan: &InertiaPlan) -> Result<Vec<Sample>, ConsoleError> {
-    let s = c.status()?;
-    if s.mode != Mode::Armed {
-        return Err(ConsoleError::Usage(format!(
-            "identify runs on a holding arm (the drive is {:?}): `flexarm arm` first",
-            s.mode
-        )));
-    }
+    holding(c)?;
     let moves = inertia::moves(plan).map_err(|e| ConsoleError::Usage(e.to_string()))?;
     c.subscribe_fastest(1)?;
     let outcome = inertia_moves(c, plan, &moves);
@@ -231,7 +223,6 @@ fn inertia_moves(
     plan: &InertiaPlan,
     moves: &[inertia::InertiaMove],
 ) -> Result<Vec<Sample>, ConsoleError> {
-    let motor_hz = f64::from(c.hello.motor_hz.max(1));
     let mut frames = to_pose(c, plan.pose)?;
     for (k, m) in moves.iter().enumerate() {
         let what = format!(
@@ -239,38 +230,9 @@ fn inertia_moves(
             k + 1,
             moves.len()
         );
-        run_move(c, &what, m.target, m.time, &mut frames)?;
+        run_move(c, &what, m.target, (m.time, m.ramp()), &mut frames)?;
     }
     frames.extend(interrupt::collect(c, 0.5)?);
-    let model = record::paper_model();
-    let t0 = frames.first().map_or(0, |f| f.tick);
-    Ok(frames
-        .iter()
-        .filter_map(|f| record::sample(f, (f.tick - t0) as f64 / motor_hz, &model))
-        .collect())
-}
-
-/// Moves the holding arm to `pose` (at most 0.5 rad/s, at least 2 s) and returns the telemetry
-/// from half a second of holding there on (the caller has subscribed).
-fn to_pose(
-    c: &mut Client,
-    pose: Vector2<f64>,
-) -> Result<Vec<flexarm_link::msg::Telemetry>, ConsoleError> {
-    let frames = interrupt::collect(c, 0.0)?;
-    let held = frames.last().map_or(Vector2::zeros(), |f| {
-        let v = record::values(f);
-        Vector2::new(v.reference(0), v.reference(1))
-    });
-    let distance = (pose - held).abs().max();
-    if distance > 1e-3 {
-        let mut moving = Vec::new();
-        run_move(
-            c,
-            "the move to the pose",
-            pose,
-            (distance / 0.5).max(2.0),
-            &mut moving,
-        )?;
-    }
-    interrupt::collect(c, 0.5)
+    let from = frames.first().map_or(0, |f| f.tick);
+    Ok(samples(c, &frames, from))
 }

@@ -17,7 +17,7 @@ use clap::{Parser, Subcommand};
 use flexarm_console::client::{Client, ConsoleError, HANDSHAKE};
 use flexarm_console::qemu::Qemu;
 use flexarm_console::{fault_name, interrupt, live, params, record, transport, waypoints};
-use flexarm_link::msg::{Mode, Move, Param, Status, Waypoint};
+use flexarm_link::msg::{Mode, Move, Status, Waypoint};
 use flexarm_link::{Command, Reply};
 
 /// The operator's console for the flexarm firmware.
@@ -164,10 +164,10 @@ enum Action {
         /// The output folder.
         out: PathBuf,
         /// Cruise speeds [rad/s], both directions each.
-        #[arg(long, value_delimiter = ',', default_value = "0.1,0.2,0.3,0.5")]
+        #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::identify::SPEEDS)]
         speeds: Vec<f64>,
         /// Seconds of each cruise averaged.
-        #[arg(long, default_value_t = 2.0)]
+        #[arg(long, default_value_t = flexarm_sim::identify::CRUISE)]
         cruise: f64,
         /// Replace files of the same name that no flexarm command wrote.
         #[arg(long)]
@@ -456,77 +456,51 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             // The folder first: a folder the tool may not write is named before the arm moves.
             let dir = flexarm_sim::outdir::OutDir::open(&out, "identify", force)
                 .map_err(ConsoleError::Io)?;
-            if experiment == "inertia" {
-                let plan = flexarm_sim::identify::inertia::InertiaPlan {
-                    moves,
-                    ..Default::default()
-                };
-                let trace = flexarm_console::identify::inertia(&mut c, &plan)?;
-                std::fs::write(
-                    dir.staging().join("inertia_record.csv"),
-                    flexarm_sim::output::trace_csv(&trace),
-                )
-                .map_err(|e| ConsoleError::Io(format!("cannot write inertia_record.csv: {e}")))?;
-                let (_, report) =
-                    flexarm_sim::identify::workflow::save_inertia(dir.staging(), &trace, None)
-                        .map_err(ConsoleError::Failed)?;
-                let files = dir.commit().map_err(ConsoleError::Io)?;
-                print!("{report}");
-                println!("identify: wrote {} in {}", files.join(", "), out.display());
-                return Ok(());
-            }
-            if experiment == "modes" {
-                let plan = flexarm_sim::identify::modes::ModesPlan {
-                    seconds,
-                    piezo_volts: volts,
-                    tap,
-                    ..Default::default()
-                };
-                let trace = flexarm_console::identify::modes(&mut c, &plan)?;
-                let window = (
-                    f64::from(c.get(Param::VaMin)?),
-                    f64::from(c.get(Param::VaMax)?),
-                );
-                let film_range =
-                    f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
-                std::fs::write(
-                    dir.staging().join("modes_record.csv"),
-                    flexarm_sim::output::trace_csv(&trace),
-                )
-                .map_err(|e| ConsoleError::Io(format!("cannot write modes_record.csv: {e}")))?;
-                let (_, report) = flexarm_sim::identify::workflow::save_modes(
-                    dir.staging(),
-                    &trace,
-                    film_range,
-                    window,
-                    None,
-                    true,
-                )
-                .map_err(ConsoleError::Failed)?;
-                let files = dir.commit().map_err(ConsoleError::Io)?;
-                print!("{report}");
-                println!("identify: wrote {} in {}", files.join(", "), out.display());
-                return Ok(());
-            }
-            let (cruises, fits) = flexarm_console::identify::friction(&mut c, &speeds, cruise)?;
-            let heading = format!(
-                "Identified on {} over the link: each joint at {} rad/s, both ways, {cruise} s of cruise averaged (`flexarm identify friction`, docs/identification.md).",
-                c.hello.build,
-                speeds
-                    .iter()
-                    .map(|v| v.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-            let report = flexarm_sim::identify::save_friction(
-                dir.staging(),
-                &heading,
-                &cruises,
-                &fits,
-                None,
-                true,
-            )
-            .map_err(ConsoleError::Io)?;
+            use flexarm_sim::identify::{self, inertia, modes, workflow};
+            let staging = dir.staging();
+            let report = match experiment.as_str() {
+                "inertia" => {
+                    let plan = inertia::InertiaPlan {
+                        moves,
+                        ..Default::default()
+                    };
+                    let trace = flexarm_console::identify::inertia(&mut c, &plan)?;
+                    workflow::save_record(staging, "inertia", &trace).map_err(ConsoleError::Io)?;
+                    workflow::save_inertia(staging, &trace, None)
+                        .map_err(ConsoleError::Failed)?
+                        .1
+                }
+                "modes" => {
+                    let plan = modes::ModesPlan {
+                        seconds,
+                        piezo_volts: volts,
+                        tap,
+                        ..Default::default()
+                    };
+                    let (trace, window) = flexarm_console::identify::modes(&mut c, &plan)?;
+                    let film_range =
+                        f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
+                    workflow::save_record(staging, "modes", &trace).map_err(ConsoleError::Io)?;
+                    workflow::save_modes(staging, &trace, film_range, window, None, true)
+                        .map_err(ConsoleError::Failed)?
+                        .1
+                }
+                _ => {
+                    let (cruises, fits) =
+                        flexarm_console::identify::friction(&mut c, &speeds, cruise)?;
+                    let heading = format!(
+                        "Identified on {} over the link: each joint at {} rad/s, both ways, {cruise} s of cruise averaged (`flexarm identify friction`, docs/identification.md).",
+                        c.hello.build,
+                        speeds
+                            .iter()
+                            .map(|v| v.to_string())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    );
+                    identify::save_friction(staging, &heading, &cruises, &fits, None, true)
+                        .map_err(ConsoleError::Io)?
+                }
+            };
             let files = dir.commit().map_err(ConsoleError::Io)?;
             print!("{report}");
             println!("identify: wrote {} in {}", files.join(", "), out.display());

@@ -103,10 +103,10 @@ enum Command {
         #[arg(long, default_value_t = 60.0)]
         seconds: f64,
         /// Cruise speeds [rad/s], both directions each.
-        #[arg(long, value_delimiter = ',', default_value = "0.1,0.2,0.3,0.5")]
+        #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::identify::SPEEDS)]
         speeds: Vec<f64>,
         /// Seconds of each cruise averaged.
-        #[arg(long, default_value_t = 2.0)]
+        #[arg(long, default_value_t = flexarm_sim::identify::CRUISE)]
         cruise: f64,
         /// Output folder.
         #[arg(long, default_value = "out/identify")]
@@ -432,7 +432,6 @@ fn main_result(cli: Cli) -> Result<()> {
             force,
             plant,
         } => {
-            use flexarm_sim::identify;
             let truth = plant.truth()?;
             let mut cfg = SimConfig {
                 state: StateSource::Observer,
@@ -447,79 +446,38 @@ fn main_result(cli: Cli) -> Result<()> {
                     "--modes-record and --inertia-record are for `identify model`, not `{experiment}` (it takes --record)"
                 ));
             }
-            if experiment != "friction" {
-                use flexarm_sim::identify::workflow;
-                let dir = OutDir::open(&out, "identify", force)?;
-                let b = workflow::Bench {
-                    cfg: &cfg,
-                    known: truth.is_some(),
-                    dir: dir.staging(),
-                    plots: !no_plots,
-                };
-                let nominal = (
-                    &flexarm_core::params::ArmParams::default(),
-                    &flexarm_core::control::piezo::PiezoPatch::paper(),
-                );
-                let report = match experiment.as_str() {
-                    "model" => {
-                        let (Some(m), Some(i)) = (&modes_record, &inertia_record) else {
-                            return Err(
-                                "model: give both --modes-record and --inertia-record".into()
-                            );
-                        };
-                        workflow::model_from_records(&b, m, i, nominal)?
-                    }
-                    "modes" => workflow::modes_step(&b, record.as_deref(), seconds)?.1,
-                    "inertia" => workflow::inertia_step(&b, record.as_deref())?.1,
-                    _ if record.is_some() => {
-                        return Err("--record: `all` runs every experiment itself; fit a recording with `modes` or `inertia`".into());
-                    }
-                    _ => workflow::all(&b, nominal, seconds)?,
-                };
-                let files = dir.commit()?;
-                println!("{report}\nWrote {}: {}.", out.display(), files.join(", "));
-                return Ok(());
-            }
-            if record.is_some() {
-                return Err("--record: the friction experiment's recordings are its moves; run it (or `flexarm identify friction` on a board)".into());
-            }
-            let held = nalgebra::Vector2::new(-1.2, -1.2);
-            let cruises = identify::friction_experiment(&cfg, held, &speeds, cruise)
-                .map_err(|e| e.to_string())?;
-            let fits = identify::fit_joints(&cruises).map_err(|e| e.to_string())?;
-            let known = truth.map(|t| [0, 1].map(|j| (t.motors[j].coulomb, t.motors[j].viscous)));
-            let plant_name = match truth {
-                Some(t) => format!(
-                    "the truth plant (link 2 with {} modes, geared drives with friction, a realistic board)",
-                    t.modes
-                ),
-                None => "the controller's own model (no friction: the fit should find none)".into(),
-            };
-            let heading = format!(
-                "Identified on {plant_name}: each joint at {} rad/s, both ways, {cruise} s of cruise averaged after {} s of settling (`cargo sim identify friction`, docs/identification.md).",
-                speeds
-                    .iter()
-                    .map(|v| v.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                identify::SETTLE
-            );
+            use flexarm_sim::identify::workflow;
             let dir = OutDir::open(&out, "identify", force)?;
-            let report = identify::save_friction(
-                dir.staging(),
-                &heading,
-                &cruises,
-                &fits,
-                known,
-                !no_plots,
-            )?;
-            let files = dir.commit()?;
-            println!(
-                "{report}
-Wrote {}: {}.",
-                out.display(),
-                files.join(", ")
+            let b = workflow::Bench {
+                cfg: &cfg,
+                known: truth.is_some(),
+                dir: dir.staging(),
+                plots: !no_plots,
+            };
+            let nominal = (
+                &flexarm_core::params::ArmParams::default(),
+                &flexarm_core::control::piezo::PiezoPatch::paper(),
             );
+            let report = match (experiment.as_str(), &record) {
+                ("model", _) => {
+                    let (Some(m), Some(i)) = (&modes_record, &inertia_record) else {
+                        return Err("model: give both --modes-record and --inertia-record".into());
+                    };
+                    workflow::model_from_records(&b, m, i, nominal)?
+                }
+                ("modes", r) => workflow::modes_step(&b, r.as_deref(), seconds)?.1,
+                ("inertia", r) => workflow::inertia_step(&b, r.as_deref())?.1,
+                ("friction", Some(_)) => {
+                    return Err("--record: the friction experiment's recordings are its moves; run it (or `flexarm identify friction` on a board)".into());
+                }
+                ("friction", None) => workflow::friction_step(&b, &speeds, cruise)?,
+                (_, Some(_)) => {
+                    return Err("--record: `all` runs every experiment itself; fit a recording with `modes` or `inertia`".into());
+                }
+                _ => workflow::all(&b, nominal, seconds)?,
+            };
+            let files = dir.commit()?;
+            println!("{report}\nWrote {}: {}.", out.display(), files.join(", "));
             Ok(())
         }
         Command::Montecarlo {

@@ -156,10 +156,10 @@ mod modes_and_model {
     }
 
     /// The bounds on the truth plant: frequencies within 0.5 %, damping within 15 %
-    /// (the figures in docs/identification.md: −0.02 % and +0.08 %, +5.7 % and +1.2 %), the
-    /// piezo→film products within 10 % (+6.3 %, −0.07 %); the inertia combinations within 5 %
-    /// (+0.35 %, +0.58 %, +2.7 %); the identified model's closed loop within 10 % of the true
-    /// parameters' on Eq. 37 (−1.4 % and −0.42 %). The model file reads back as the model.
+    /// (the figures in docs/identification.md: −0.03 % and +0.09 %, +5.7 % and +1.1 %), the
+    /// piezo→film products within 10 % (+6.2 %, −0.14 %); the inertia combinations within 5 %
+    /// (+0.21 %, +0.48 %, +2.7 %); the identified model's closed loop within 10 % of the true
+    /// parameters' on Eq. 37 (−1.3 % and −0.48 %). The model file reads back as the model.
     #[test]
     fn the_whole_loop_recovers_the_truth() {
         let (cfg, _) = super::truth();

@@ -29,8 +29,6 @@ pub struct Frf {
     pub h: Vec<Vec<Complex64>>,
     /// Per line, the multiple coherence `γ²` [0, 1].
     pub coherence: Vec<f64>,
-    /// Per line, each input's averaged power `G_uu[i][i]` (one segment's worth).
-    pub input_power: Vec<Vec<f64>>,
     /// Segments averaged.
     pub segments: usize,
 }
@@ -123,13 +121,7 @@ pub fn estimate(
     }
     let mut h = Vec::with_capacity(nl);
     let mut coherence = Vec::with_capacity(nl);
-    let mut input_power = Vec::with_capacity(nl);
     for l in 0..nl {
-        input_power.push(
-            (0..m)
-                .map(|i| guu[l][(i, i)].re / segments as f64)
-                .collect(),
-        );
         // H Guu = Gyu  ⇔  Guuᵀ Hᵀ = Gyuᵀ (Guu is Hermitian: Guuᵀ = conj(Guu)).
         match guu[l].clone().transpose().lu().solve(&gyu[l]) {
             Some(hl) if hl.iter().all(|c| c.re.is_finite() && c.im.is_finite()) => {
@@ -147,7 +139,6 @@ pub fn estimate(
         freq: lines.iter().map(|&k| k as f64 * df).collect(),
         h,
         coherence,
-        input_power,
         segments,
     })
 }

@@ -32,6 +32,12 @@ use crate::sim::{Sample, SimConfig, simulate};
 pub const SETTLE: f64 = 1.0;
 /// Ramp acceleration of the experiment's moves [rad/s²].
 pub const ACCEL: f64 = 1.0;
+/// The experiment's default cruise speeds [rad/s], each both ways.
+pub const SPEEDS: [f64; 4] = [0.1, 0.2, 0.3, 0.5];
+/// The experiment's default cruise averaged [s].
+pub const CRUISE: f64 = 2.0;
+/// Where the simulator's experiment starts [rad] (the joints' ranges leave room for its moves).
+pub const HELD: [f64; 2] = [-1.2, -1.2];
 
 /// One cruise: a constant-speed stretch of one joint's move.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -222,14 +228,8 @@ pub fn fit(cruises: &[Cruise]) -> Result<Friction, IdentifyError> {
     })
 }
 
-/// The friction experiment on the simulator (`cfg`: its plant, controller and sensors), from
-/// rest at `held`: every joint's cruises, `cruise` seconds each.
-pub fn friction_experiment(
-    cfg: &SimConfig,
-    held: Vector2<f64>,
-    speeds: &[f64],
-    cruise: f64,
-) -> Result<Vec<Cruise>, IdentifyError> {
+/// The experiment's speeds must be given, each in (0, 3] rad/s.
+pub fn check_speeds(speeds: &[f64]) -> Result<(), IdentifyError> {
     if speeds.is_empty()
         || speeds
             .iter()
@@ -239,6 +239,18 @@ pub fn friction_experiment(
             "speeds must be given, each in (0, 3] rad/s".into(),
         ));
     }
+    Ok(())
+}
+
+/// The friction experiment on the simulator (`cfg`: its plant, controller and sensors), from
+/// rest at `held`: every joint's cruises, `cruise` seconds each.
+pub fn friction_experiment(
+    cfg: &SimConfig,
+    held: Vector2<f64>,
+    speeds: &[f64],
+    cruise: f64,
+) -> Result<Vec<Cruise>, IdentifyError> {
+    check_speeds(speeds)?;
     let mut cruises = Vec::new();
     for joint in 0..2 {
         for &v in speeds {

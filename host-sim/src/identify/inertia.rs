@@ -21,15 +21,16 @@
 //! each move as any `move trapezoid`, the simulator the same moves with a hold of [`GAP`]
 //! between them as a host's round trips leave. The encoders' angles are differentiated in the
 //! frequency domain (the record starts and ends at rest at the pose, so its periodic extension
-//! is smooth) through a low-pass (a raised-cosine taper from 2 to 4 Hz) that removes the
-//! encoders' quantization and the link's ringing; the regressor's columns and the torques pass
-//! the same low-pass, so that the equation holds between the filtered sides. The seven
+//! is smooth) through a low-pass from 4 to 8 Hz against the encoders' quantization; the
+//! regressor's columns and the torques then pass the same low-pass, a raised-cosine taper from
+//! 2 to 4 Hz against the link's ringing, so that the equation holds between the filtered
+//! sides. The seven
 //! parameters `(A, J, S, F_c1, F_v1, F_c2, F_v2)` come from one least-squares fit of both
 //! joints' equations over every sample.
 
 use flexarm_core::Vector2;
 use flexarm_core::params::ArmParams;
-use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
+use flexarm_core::trajectory::JointTrajectory;
 use nalgebra::{DMatrix, DVector};
 use rustfft::FftPlanner;
 use rustfft::num_complex::Complex64;
@@ -121,8 +122,6 @@ impl Default for InertiaPlan {
 pub const JOINT2_SCALE: f64 = 2.0;
 /// The simulator's hold between two moves [s] (a host's round trips).
 pub const GAP: f64 = 0.3;
-/// The moves' peak acceleration at most [rad/s²] (a drive's limit is 10).
-const ACCEL_MAX: f64 = 8.0;
 
 /// One move of the experiment: its target [rad] and duration [s] (ramps of a third).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -131,6 +130,13 @@ pub struct InertiaMove {
     pub target: Vector2<f64>,
     /// How long it takes [s].
     pub time: f64,
+}
+
+impl InertiaMove {
+    /// Its ramps [s]: a third of the move.
+    pub fn ramp(&self) -> f64 {
+        super::ramp_of(self.time)
+    }
 }
 
 /// The moves: random targets about the pose, 1 to 2.5 s each (longer where the acceleration
@@ -158,9 +164,7 @@ pub fn moves(plan: &InertiaPlan) -> Result<Vec<InertiaMove>, IdentifyError> {
             } else {
                 plan.pose + reach.map(|r| r * (2.0 * rng.uniform() - 1.0))
             };
-            // A trapezoid with ramps of a third peaks at 4.5 |Δθ| / T².
-            let least = (4.5 * (target - from).abs().max() / ACCEL_MAX).sqrt();
-            let time = (1.0 + 1.5 * rng.uniform()).max(least);
+            let time = (1.0 + 1.5 * rng.uniform()).max(super::least_time(from, target));
             from = target;
             InertiaMove { target, time }
         })
@@ -174,16 +178,7 @@ pub fn segments(plan: &InertiaPlan) -> Result<Vec<(f64, JointTrajectory<f32>)>, 
     let mut t = 0.0;
     let mut out = Vec::new();
     for m in moves(plan)? {
-        let profile = Profile::new(m.time as f32, (m.time / 3.0) as f32)
-            .map_err(|e| IdentifyError::Data(format!("a move of {} s: {e:?}", m.time)))?;
-        out.push((
-            t,
-            JointTrajectory::Trapezoid(Trapezoid {
-                start: from.cast::<f32>(),
-                amplitude: (m.target - from).cast::<f32>(),
-                profile,
-            }),
-        ));
+        out.push((t, super::trapezoid(from, m.target, m.time)?));
         t += m.time;
         out.push((t, JointTrajectory::Hold(m.target.cast::<f32>())));
         t += GAP;
@@ -206,45 +201,56 @@ pub fn inertia_experiment(
     };
     let (_, trace) = simulate_segments(&run, &segs, true)
         .map_err(|e| IdentifyError::Sim(format!("the inertia experiment: {e}")))?;
-    let s = &cfg.sensors;
-    Ok(trace
-        .into_iter()
-        .map(|mut x| {
-            x.x.q.x = s.angle(x.x.q.x);
-            x.x.q.y = s.angle(x.x.q.y);
-            x
-        })
-        .collect())
+    Ok(super::encoder_readings(&cfg.sensors, trace))
 }
 
-/// The low-pass's taper [Hz].
+/// The fit's low-pass taper [Hz]: the torques and the regressor's columns pass it.
 const PASS: (f64, f64) = (2.0, 4.0);
+/// The derivatives' low-pass taper [Hz]: against the encoders' quantization only, wide enough
+/// to be flat wherever [`PASS`] lets anything through, so that a linear column filtered by
+/// [`PASS`] is the torque's filter exactly.
+const PASS_DERIVATIVES: (f64, f64) = (4.0, 8.0);
 
-/// `x`'s `order`-th derivative through the low-pass (frequency domain, periodic extension).
-fn derivative(x: &[f64], dt: f64, order: u32) -> Vec<f64> {
+/// `x`'s derivatives of `orders` through the raised-cosine low-pass `pass` [Hz] (frequency
+/// domain, periodic extension; one forward transform).
+fn derivatives<const N: usize>(
+    x: &[f64],
+    dt: f64,
+    pass: (f64, f64),
+    orders: [u32; N],
+) -> [Vec<f64>; N] {
     let n = x.len();
     let mut planner = FftPlanner::new();
-    let mut buf: Vec<Complex64> = x.iter().map(|v| Complex64::new(*v, 0.0)).collect();
-    planner.plan_fft_forward(n).process(&mut buf);
-    for (k, c) in buf.iter_mut().enumerate() {
-        let kk = if k <= n / 2 {
+    let mut spectrum: Vec<Complex64> = x.iter().map(|v| Complex64::new(*v, 0.0)).collect();
+    planner.plan_fft_forward(n).process(&mut spectrum);
+    let inverse = planner.plan_fft_inverse(n);
+    let gain = |k: usize| {
+        let f = (if k <= n / 2 {
             k as f64
         } else {
             k as f64 - n as f64
-        };
-        let f = kk / (n as f64 * dt);
-        let g = if f.abs() <= PASS.0 {
+        }) / (n as f64 * dt);
+        let g = if f.abs() <= pass.0 {
             1.0
-        } else if f.abs() >= PASS.1 {
+        } else if f.abs() >= pass.1 {
             0.0
         } else {
-            0.5 + 0.5 * (std::f64::consts::PI * (f.abs() - PASS.0) / (PASS.1 - PASS.0)).cos()
+            0.5 + 0.5 * (std::f64::consts::PI * (f.abs() - pass.0) / (pass.1 - pass.0)).cos()
         };
-        let jw = Complex64::new(0.0, std::f64::consts::TAU * f);
-        *c *= jw.powu(order) * g;
-    }
-    planner.plan_fft_inverse(n).process(&mut buf);
-    buf.iter().map(|c| c.re / n as f64).collect()
+        (Complex64::new(0.0, std::f64::consts::TAU * f), g)
+    };
+    orders.map(|order| {
+        let mut buf: Vec<Complex64> = spectrum
+            .iter()
+            .enumerate()
+            .map(|(k, c)| {
+                let (jw, g) = gain(k);
+                c * jw.powu(order) * g
+            })
+            .collect();
+        inverse.process(&mut buf);
+        buf.iter().map(|c| c.re / n as f64).collect()
+    })
 }
 
 /// The least-squares fit of a trace of the exciting motion (evenly sampled; angles, torques).
@@ -268,19 +274,20 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
             "the record holds a value that is not a finite number".into(),
         ));
     }
-    let tau = [
-        derivative(&ch(&|s| s.tau.x), dt, 0),
-        derivative(&ch(&|s| s.tau.y), dt, 0),
-    ];
-    let pos = [derivative(&th[0], dt, 0), derivative(&th[1], dt, 0)];
-    let vel = [derivative(&th[0], dt, 1), derivative(&th[1], dt, 1)];
-    let acc = [derivative(&th[0], dt, 2), derivative(&th[1], dt, 2)];
+    let lowpass = |x: &[f64]| {
+        let [y] = derivatives(x, dt, PASS, [0]);
+        y
+    };
+    let tau = [lowpass(&ch(&|s| s.tau.x)), lowpass(&ch(&|s| s.tau.y))];
+    let [pos1, vel1, acc1] = derivatives(&th[0], dt, PASS_DERIVATIVES, [0, 1, 2]);
+    let [pos2, vel2, acc2] = derivatives(&th[1], dt, PASS_DERIVATIVES, [0, 1, 2]);
+    let (pos, vel, acc) = ([pos1, pos2], [vel1, vel2], [acc1, acc2]);
     // The regressor's columns, each through the low-pass the torques took: its products of
     // angles, speeds and accelerations reach past the band, and the equation holds only when
     // both sides are filtered alike.
     let n = trace.len();
     let sg = |v: f64| (v / 0.01).tanh();
-    let column = |f: &dyn Fn(usize) -> f64| derivative(&(0..n).map(f).collect::<Vec<_>>(), dt, 0);
+    let column = |f: &dyn Fn(usize) -> f64| lowpass(&(0..n).map(f).collect::<Vec<_>>());
     let zero = vec![0.0; n];
     let y1: [Vec<f64>; 7] = [
         column(&|k| acc[0][k]),
@@ -304,7 +311,7 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
         column(&|k| sg(vel[1][k])),
         column(&|k| vel[1][k]),
     ];
-    // The fade's ends, where the filters' periodic extension joins, are left out.
+    // The record's ends, where the filters' periodic extension joins, are left out.
     let skip = (1.0 / dt) as usize;
     let rows: Vec<usize> = (skip..n.saturating_sub(skip)).collect();
     let mut a = DMatrix::<f64>::zeros(2 * rows.len(), 7);

@@ -20,6 +20,11 @@ pub mod workflow;
 
 pub use friction::*;
 
+use flexarm_core::Vector2;
+use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
+
+use crate::sim::Sample;
+
 /// What an identification can refuse.
 #[derive(Clone, Debug, PartialEq)]
 pub enum IdentifyError {
@@ -41,7 +46,7 @@ impl std::error::Error for IdentifyError {}
 
 /// The sampling period of `trace` [s], which must be even: a gap (lost frames) is refused with
 /// its time.
-pub fn even_period(trace: &[crate::sim::Sample]) -> Result<f64, IdentifyError> {
+pub fn even_period(trace: &[Sample]) -> Result<f64, IdentifyError> {
     let (Some(a), Some(b)) = (trace.first(), trace.get(1)) else {
         return Err(IdentifyError::Data(
             "the record holds fewer than two samples".into(),
@@ -60,4 +65,47 @@ pub fn even_period(trace: &[crate::sim::Sample]) -> Result<f64, IdentifyError> {
         )));
     }
     Ok(dt)
+}
+
+/// The experiments' moves' peak acceleration at most [rad/s²]: a drive refuses more than 10
+/// (`flexarm_core::drive::MoveLimits`).
+const ACCEL_MAX: f64 = 8.0;
+
+/// The ramps of an experiment's trapezoid of `time` seconds [s]: a third of it.
+pub fn ramp_of(time: f64) -> f64 {
+    time / 3.0
+}
+
+/// The shortest time [s] a trapezoid with ramps of a third takes from `from` to `to` [rad]
+/// within [`ACCEL_MAX`]: it peaks at `4.5 |Δθ| / T²`.
+pub fn least_time(from: Vector2<f64>, to: Vector2<f64>) -> f64 {
+    (4.5 * (to - from).abs().max() / ACCEL_MAX).sqrt()
+}
+
+/// The experiments' rest-to-rest trapezoid from `from` to `to` [rad] in `time` [s], ramps of a
+/// third.
+pub fn trapezoid(
+    from: Vector2<f64>,
+    to: Vector2<f64>,
+    time: f64,
+) -> Result<JointTrajectory<f32>, IdentifyError> {
+    let profile = Profile::new(time as f32, ramp_of(time) as f32)
+        .map_err(|e| IdentifyError::Data(format!("a move of {time} s: {e:?}")))?;
+    Ok(JointTrajectory::Trapezoid(Trapezoid {
+        start: from.cast::<f32>(),
+        amplitude: (to - from).cast::<f32>(),
+        profile,
+    }))
+}
+
+/// A simulated trace as a board records it: the angles the encoders of `sensors` read.
+pub fn encoder_readings(sensors: &crate::sim::Sensors, trace: Vec<Sample>) -> Vec<Sample> {
+    trace
+        .into_iter()
+        .map(|mut x| {
+            x.x.q.x = sensors.angle(x.x.q.x);
+            x.x.q.y = sensors.angle(x.x.q.y);
+            x
+        })
+        .collect()
 }

@@ -10,7 +10,8 @@
 //!   measured), the sign the nominal shapes give.
 //! - The mode shapes' integrals `v_j`, `w_j`, `φ_j(a2)` of a uniform link of the identified
 //!   mass: one sensor cannot measure shapes, and the controller's law and observer need them.
-//!   What the film sees of the base (`c_j = k_s Δφ'_j w_j`) checks them where it is resolved.
+//!   What the film sees of the base (`c_j = k_s Δφ'_j w_j`, in the modes report) bears on them
+//!   where the encoders resolve it (mode 1); the model does not use it.
 //! - The joints' friction ([`super::friction`]) goes to the simulator's plant description;
 //!   the paper's controller has no friction term.
 

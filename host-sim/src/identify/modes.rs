@@ -35,7 +35,7 @@
 //! 26°.
 
 use flexarm_core::Vector2;
-use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
+use flexarm_core::trajectory::JointTrajectory;
 use rustfft::num_complex::Complex64;
 
 use super::IdentifyError;
@@ -111,25 +111,14 @@ pub fn excitation(plan: &ModesPlan) -> Result<Excitation, IdentifyError> {
         return bad(format!("blocks of {} s: give 1 to 60 s", plan.block));
     }
     let mut rng = Rng::new(plan.seed);
-    let pose = plan.pose.cast::<f32>();
-    let trapezoid = |from: Vector2<f32>, to: Vector2<f32>, time: f64| {
-        Profile::new(time as f32, (time / 3.0) as f32)
-            .map(|profile| {
-                JointTrajectory::Trapezoid(Trapezoid {
-                    start: from,
-                    amplitude: to - from,
-                    profile,
-                })
-            })
-            .map_err(|e| IdentifyError::Data(format!("a move of {time} s: {e:?}")))
-    };
+    let pose = plan.pose;
     let (mut bias, mut moves) = (Vec::new(), Vec::new());
     let mut t = 0.0;
     let mut patch = true;
     while t < plan.seconds {
         let end = (t + plan.block).min(plan.seconds);
         if patch {
-            moves.push((t, JointTrajectory::Hold(pose)));
+            moves.push((t, JointTrajectory::Hold(pose.cast::<f32>())));
             while t < end {
                 let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
                 bias.push((t, sign * plan.piezo_volts));
@@ -144,16 +133,10 @@ pub fn excitation(plan: &ModesPlan) -> Result<Excitation, IdentifyError> {
                 let to = if last {
                     pose
                 } else {
-                    Vector2::new(
-                        pose.x,
-                        pose.y + (plan.tap * (2.0 * rng.uniform() - 1.0)) as f32,
-                    )
+                    Vector2::new(pose.x, pose.y + plan.tap * (2.0 * rng.uniform() - 1.0))
                 };
-                // Within a drive's move limits (`flexarm_core::drive::MoveLimits`: 10 rad/s²):
-                // a trapezoid with ramps of a third peaks at 4.5 |Δθ| / T²; at most 8 rad/s².
-                let least = (4.5 * f64::from((to - from).abs().max()) / 8.0).sqrt();
-                let time = if last { 0.3 } else { time }.max(least);
-                moves.push((t, trapezoid(from, to, time)?));
+                let time = if last { 0.3 } else { time }.max(super::least_time(from, to));
+                moves.push((t, super::trapezoid(from, to, time)?));
                 from = to;
                 t += time;
                 if last {
@@ -220,15 +203,7 @@ pub fn modes_experiment(cfg: &SimConfig, plan: &ModesPlan) -> Result<Vec<Sample>
     };
     let (_, trace) = simulate_excited(&run, &ex.moves, &|t| ex.bias_at(t))
         .map_err(|e| IdentifyError::Sim(format!("the modes experiment: {e}")))?;
-    let s = &cfg.sensors;
-    Ok(trace
-        .into_iter()
-        .map(|mut x| {
-            x.x.q.x = s.angle(x.x.q.x);
-            x.x.q.y = s.angle(x.x.q.y);
-            x
-        })
-        .collect())
+    Ok(super::encoder_readings(&cfg.sensors, trace))
 }
 
 /// How the record is fitted.

@@ -1,5 +1,6 @@
-//! `cargo sim identify modes | inertia | all`: each step's experiment (or a recording), fit,
-//! files and report; `all` then generates the model and runs the closed-loop check.
+//! `cargo sim identify friction | modes | inertia | all | model`: each step's experiment (or a
+//! recording), fit, files and report; `all` then generates the model and runs the closed-loop
+//! check, `model` generates it from a board's records.
 
 use std::path::Path;
 
@@ -43,7 +44,7 @@ fn record_or_run(
         Some(p) => read_csv(p),
         None => {
             let trace = run().map_err(|e| e.to_string())?;
-            write(b.dir, &format!("{name}_record.csv"), &trace_csv(&trace))?;
+            save_record(b.dir, name, &trace)?;
             Ok(trace)
         }
     }
@@ -151,32 +152,42 @@ pub const CHECK_PIEZO: PiezoGains<f32> = PiezoGains {
 /// [`CHECK_PIEZO`]'s `k_c` [s], as the model file writes it.
 pub const CHECK_K_C: f64 = 3.162;
 
-/// Every step on the simulator, from the `nominal` arm and patch a user starts from; then
-/// `model.toml` and the closed-loop check (`verify.md`). Returns the report.
-pub fn all(
+/// The friction step: the experiment on the simulator at `speeds` [rad/s] with `cruise`
+/// seconds averaged, its fit and `friction.*`. Returns the report.
+pub fn friction_step(b: &Bench, speeds: &[f64], cruise: f64) -> Result<String, String> {
+    let held = Vector2::from(super::HELD);
+    let cruises =
+        super::friction_experiment(b.cfg, held, speeds, cruise).map_err(|e| e.to_string())?;
+    let fits = super::fit_joints(&cruises).map_err(|e| e.to_string())?;
+    let truth = b.cfg.truth.filter(|_| b.known);
+    let known = truth.map(|t| [0, 1].map(|j| (t.motors[j].coulomb, t.motors[j].viscous)));
+    let plant = match truth {
+        Some(t) => format!(
+            "the truth plant (link 2 with {} modes, geared drives with friction, a realistic board)",
+            t.modes
+        ),
+        None => "the controller's own model (no friction: the fit should find none)".into(),
+    };
+    let heading = format!(
+        "Identified on {plant}: each joint at {} rad/s, both ways, {cruise} s of cruise averaged after {} s of settling (`cargo sim identify friction`, docs/identification.md).",
+        speeds
+            .iter()
+            .map(|v| v.to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
+        super::SETTLE
+    );
+    super::save_friction(b.dir, &heading, &cruises, &fits, known, b.plots)
+}
+
+/// The controller's model from the fits on the `nominal` arm and patch, written to
+/// `model.toml`.
+fn write_model(
     b: &Bench,
     nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
-    seconds: f64,
-) -> Result<String, String> {
-    let speeds = [0.1, 0.2, 0.3, 0.5];
-    let cruises = super::friction_experiment(b.cfg, Vector2::new(-1.2, -1.2), &speeds, 2.0)
-        .map_err(|e| e.to_string())?;
-    let fits = super::fit_joints(&cruises).map_err(|e| e.to_string())?;
-    let known = b
-        .cfg
-        .truth
-        .filter(|_| b.known)
-        .map(|t| [0, 1].map(|j| (t.motors[j].coulomb, t.motors[j].viscous)));
-    let f_text = super::save_friction(
-        b.dir,
-        "Each joint at 0.1, 0.2, 0.3 and 0.5 rad/s, both ways, 2 s of cruise averaged (`cargo sim identify friction`).",
-        &cruises,
-        &fits,
-        known,
-        b.plots,
-    )?;
-    let (modes, m_text) = modes_step(b, None, seconds)?;
-    let (inertia, i_text) = inertia_step(b, None)?;
+    modes: &ModesFit,
+    inertia: &InertiaFit,
+) -> Result<(ArmParams<f64>, PiezoPatch<f64>), String> {
     let (arm, patch) = identified_model(nominal.0, nominal.1, &inertia.rigid, &modes.modes)
         .map_err(|e| e.to_string())?;
     write(
@@ -184,6 +195,20 @@ pub fn all(
         "model.toml",
         &model::model_fragment(&arm, &patch, CHECK_K_C),
     )?;
+    Ok((arm, patch))
+}
+
+/// Every step on the simulator, from the `nominal` arm and patch a user starts from; then
+/// `model.toml` and the closed-loop check (`verify.md`). Returns the report.
+pub fn all(
+    b: &Bench,
+    nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
+    seconds: f64,
+) -> Result<String, String> {
+    let f_text = friction_step(b, &super::SPEEDS, super::CRUISE)?;
+    let (modes, m_text) = modes_step(b, None, seconds)?;
+    let (inertia, i_text) = inertia_step(b, None)?;
+    let (arm, patch) = write_model(b, nominal, &modes, &inertia)?;
     let check = SimConfig {
         piezo: Some(CHECK_PIEZO),
         ..*b.cfg
@@ -217,12 +242,11 @@ pub fn model_from_records(
 ) -> Result<String, String> {
     let (modes, m_text) = modes_step(b, Some(modes_record), 0.0)?;
     let (inertia, i_text) = inertia_step(b, Some(inertia_record))?;
-    let (arm, patch) = identified_model(nominal.0, nominal.1, &inertia.rigid, &modes.modes)
-        .map_err(|e| e.to_string())?;
-    write(
-        b.dir,
-        "model.toml",
-        &model::model_fragment(&arm, &patch, CHECK_K_C),
-    )?;
+    write_model(b, nominal, &modes, &inertia)?;
     Ok(format!("{m_text}\n{i_text}"))
+}
+
+/// Writes a record `trace` as `<name>_record.csv` (the trace CSV `--record` reads back).
+pub fn save_record(dir: &Path, name: &str, trace: &[Sample]) -> Result<(), String> {
+    write(dir, &format!("{name}_record.csv"), &trace_csv(trace))
 }
