@@ -449,12 +449,15 @@ fn flood_block(k: u16) -> Result<Vec<u8>, String> {
 /// the host's clock and the piezo timer, which steps the QEMU board's plant, slips against the
 /// motor timer by a varying amount, 2.5e-3 to 9e-3 rad of error from run to run.)
 ///
-/// The rate: QEMU's USART model takes one byte per turn of QEMU's main loop, about 40 kB per
-/// second of the host's time, and this session's QEMU (`-icount sleep=on`) keeps the idle
-/// guest's clock on the host's, so the flood arrives at about 40 kB/s of the firmware's time:
-/// 44 % of the board's 921 600 baud. The board's full line rate is covered by the receive path's
-/// cost per byte (`cargo fw-bench`, docs/link.md). The check: at least 30 kB/s arrived (a flood
-/// that stalled fails it).
+/// The rate: QEMU's USART model takes one byte per turn of QEMU's main loop, a pace set by the
+/// host's speed (38 kB per second of the host's time on the machine of docs/link.md, 29 kB/s on
+/// a slower CI machine), and this session's QEMU (`-icount sleep=on`) keeps the idle guest's
+/// clock on the host's, so the flood arrives at that pace in the firmware's time too: 30 to 45 %
+/// of the board's 921 600 baud. The board's full line rate is covered by the receive path's
+/// cost per byte (`cargo fw-bench`, docs/link.md), not by this session. The check is on the
+/// session itself and on the firmware: at least 10 kB/s arrived, ten times what the full
+/// session's `sleep=off` clock lets through (a flood that stalled or turned into a trickle fails
+/// it), and not a byte of it was lost to a full receive queue.
 fn flood(link: &mut Link) -> Result<(), String> {
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -559,8 +562,8 @@ fn flood(link: &mut Link) -> Result<(), String> {
         .last()
         .map_or([9.0; 2], |f| [f.values[2], f.values[3]]);
     check(
-        rate >= 30_000.0,
-        "the flood kept the line full at QEMU's pace",
+        rate >= 10_000.0 && after.rx_lost == before.rx_lost,
+        "the flood kept the line full at QEMU's pace, none of it lost",
         format!(
             "{} kB sent; {:.0} bytes/s received over {seconds:.1} s of the firmware's time (the board's 921 600 baud: 92 160 bytes/s); {} bytes lost to a full queue",
             sent / 1000,
