@@ -128,7 +128,8 @@ impl<T: Real> Controller<T> {
         motor_period: T,
         observer_gain: Gain<T>,
     ) -> Self {
-        Self::with_patch(
+        Self::with_model(
+            ArmParams::default(),
             law,
             trajectory,
             piezo_period,
@@ -140,15 +141,18 @@ impl<T: Real> Controller<T> {
         )
     }
 
-    /// [`Self::paper`] with another patch, piezo-loop gains and limits: the paper's arm and
-    /// motor gains, the patch `patch` (its film map `k_s Δφ'` is the observer's), the piezo
-    /// law `V_a = sat(−k_c V̇_f)` with `piezo_gains`, and `limits` (torques, and the voltage the
-    /// board's piezo output stage can deliver). `observer_gain` must be designed for this
-    /// patch's film map at `motor_period` [s] (`flexarm-sim firmware-params` does it for the
-    /// firmware). A patch that is not on link 2, or a gain `k_c` [s] or filter corner [Hz] that
-    /// is not finite and positive, latches [`Fault::InvalidConfig`].
+    /// [`Self::paper`] with another model of the arm, patch, piezo-loop gains and limits: the
+    /// arm `arm` (an identified one, `docs/identification.md`) with the paper's motor gains,
+    /// the patch `patch` (its film map `k_s Δφ'` is the observer's), the piezo law
+    /// `V_a = sat(−k_c V̇_f)` with `piezo_gains`, and `limits` (torques, and the voltage the
+    /// board's piezo output stage can deliver). `observer_gain` must be designed for this arm
+    /// and this patch's film map at `motor_period` [s] (`flexarm-sim firmware-params` does it
+    /// for the firmware). An arm that fails [`ArmParams::validate`], a patch that is not on its
+    /// link 2, or a gain `k_c` [s] or filter corner [Hz] that is not finite and positive,
+    /// latches [`Fault::InvalidConfig`].
     #[allow(clippy::too_many_arguments)]
-    pub fn with_patch(
+    pub fn with_model(
+        arm: ArmParams<T>,
         law: MotorLaw,
         trajectory: JointTrajectory<T>,
         piezo_period: T,
@@ -161,7 +165,7 @@ impl<T: Real> Controller<T> {
         let theta0 = trajectory.sample(T::zero()).q;
         Self::new(
             MotorController {
-                model: Model::new(ArmParams::default()),
+                model: Model::new(arm),
                 gains: Gains::default(),
                 limits,
                 law,

@@ -81,9 +81,9 @@ impl<T: Real> Planar2<T> {
         }
         if r < lo + margin || r > hi - margin {
             return Err(TrajectoryError::Unreachable {
-                distance: r.to_f64(),
-                min: (lo + margin).to_f64(),
-                max: (hi - margin).to_f64(),
+                distance: r.to_f32(),
+                min: (lo + margin).to_f32(),
+                max: (hi - margin).to_f32(),
             });
         }
         let c2 = (r2 - self.a1 * self.a1 - self.a2 * self.a2) / (T::c(2.0) * self.a1 * self.a2);

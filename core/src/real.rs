@@ -27,6 +27,8 @@ pub trait Real: RealField + Copy {
     fn c(x: f64) -> Self;
     /// Converts to `f64` exactly.
     fn to_f64(self) -> f64;
+    /// Converts to `f32`, rounding to nearest (for reports: no `f64` code on the MCU).
+    fn to_f32(self) -> f32;
     /// `true` unless NaN or ±∞.
     fn finite(self) -> bool;
     /// `true` for NaN.
@@ -64,6 +66,9 @@ impl Real for f32 {
     fn to_f64(self) -> f64 {
         f64::from(self)
     }
+    fn to_f32(self) -> f32 {
+        self
+    }
     fn finite(self) -> bool {
         self.is_finite()
     }
@@ -99,6 +104,9 @@ impl Real for f64 {
     }
     fn to_f64(self) -> f64 {
         self
+    }
+    fn to_f32(self) -> f32 {
+        self as f32
     }
     fn finite(self) -> bool {
         self.is_finite()

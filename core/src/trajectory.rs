@@ -19,14 +19,15 @@ use crate::{Vector2, Vector4};
 /// Why a trajectory was refused at construction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TrajectoryError {
-    /// A point of the path is outside the reachable annulus (with its margin) [m].
+    /// A point of the path is outside the reachable annulus (with its margin) [m]; the
+    /// distances in `f32` whatever the arm's precision (the MCU links no `f64` code for them).
     Unreachable {
         /// Distance of the offending point from joint 1 [m].
-        distance: f64,
+        distance: f32,
         /// Smallest allowed distance [m].
-        min: f64,
+        min: f32,
         /// Largest allowed distance [m].
-        max: f64,
+        max: f32,
     },
     /// A timing parameter is non-positive, or the ramps are longer than half the move.
     InvalidTiming,
@@ -249,9 +250,9 @@ impl<T: Real> Circle<T> {
         for d in [near, far] {
             if d < lo + margin || d > hi - margin {
                 return Err(TrajectoryError::Unreachable {
-                    distance: d.to_f64(),
-                    min: (lo + margin).to_f64(),
-                    max: (hi - margin).to_f64(),
+                    distance: d.to_f32(),
+                    min: (lo + margin).to_f32(),
+                    max: (hi - margin).to_f32(),
                 });
             }
         }

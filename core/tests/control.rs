@@ -333,7 +333,8 @@ fn a_piezo_window_without_zero_is_refused() {
             ..Limits::default()
         };
         assert!(limits.validate().is_err(), "{v_a_min}");
-        let c = Controller::with_patch(
+        let c = Controller::with_model(
+            ArmParams::default(),
             MotorLaw::Tracking,
             JointTrajectory::Trapezoid(Trapezoid::paper()),
             1e-4,

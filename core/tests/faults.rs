@@ -320,9 +320,10 @@ fn patch_off_the_link_is_an_invalid_configuration() {
 }
 
 #[test]
-fn with_patch_is_paper_for_the_papers_patch_and_refuses_a_bad_patch_or_gain() {
-    let build = |patch: PiezoPatch<f32>, k_c: f32| {
-        Controller::with_patch(
+fn with_model_is_paper_for_the_papers_arm_and_patch_and_refuses_a_bad_arm_patch_or_gain() {
+    let build_on = |arm: ArmParams<f32>, patch: PiezoPatch<f32>, k_c: f32| {
+        Controller::with_model(
+            arm,
             MotorLaw::Tracking,
             JointTrajectory::Trapezoid(Trapezoid::paper()),
             1e-4,
@@ -336,6 +337,7 @@ fn with_patch_is_paper_for_the_papers_patch_and_refuses_a_bad_patch_or_gain() {
             Limits::default(),
         )
     };
+    let build = |patch, k_c| build_on(ArmParams::default(), patch, k_c);
     let paper = Controller::paper(
         MotorLaw::Tracking,
         JointTrajectory::Trapezoid(Trapezoid::paper()),
@@ -364,6 +366,28 @@ fn with_patch_is_paper_for_the_papers_patch_and_refuses_a_bad_patch_or_gain() {
     off.x_a = 0.3;
     for c in [build(off, 30.0), build(other, 0.0), build(other, f32::NAN)] {
         assert_eq!(c.fault(), Some(Fault::InvalidConfig));
+    }
+    // Another arm (an identified one): runs on its own model.
+    let mut arm = ArmParams::<f32>::default();
+    arm.i_h2 *= 1.1;
+    arm.modes.omega *= 0.95;
+    let c = build_on(arm, PiezoPatch::paper(), 30.0);
+    assert_eq!(c.fault(), None);
+    assert_eq!(c.motor.model.params, arm);
+    // An arm that fails its own check (modes out of order, a negative inertia), or a patch
+    // past the end of a shorter link 2: the safe state from the start.
+    let swapped = ArmParams {
+        modes: flexarm_core::params::ModalData {
+            omega: Vector2::new(arm.modes.omega.y, arm.modes.omega.x),
+            ..arm.modes
+        },
+        ..arm
+    };
+    let negative = ArmParams { i_1: -0.1, ..arm };
+    let short = ArmParams { a2: 0.4, ..arm };
+    for bad in [swapped, negative, short] {
+        let c = build_on(bad, PiezoPatch::paper(), 30.0);
+        assert_eq!(c.fault(), Some(Fault::InvalidConfig), "{bad:?}");
     }
 }
 

@@ -77,7 +77,7 @@ fn the_printed_circle_is_rejected_with_a_clear_error() {
     let e = Circle::<f64>::as_printed(0.3, 0.7).unwrap_err();
     let msg = e.to_string();
     assert!(
-        matches!(e, TrajectoryError::Unreachable { distance, .. } if (distance - 0.2).abs() < 1e-12),
+        matches!(e, TrajectoryError::Unreachable { distance, .. } if (distance - 0.2).abs() < 1e-7),
         "{e:?}"
     );
     assert!(

@@ -5,12 +5,13 @@
 //! motor 100 Hz) with the plant stepped at the piezo period and the observer gain designed for
 //! 100 Hz. The hardware runs at 168 MHz with the APB1 timers at 84 MHz.
 //!
-//! The piezo patch, its gain `k_c` and the observer gains come from `firmware/piezo.toml`
-//! through `generated.rs` (`cargo sim firmware-params`, docs/firmware.md).
+//! The arm model, the piezo patch, its gain `k_c` and the observer gains come from
+//! `firmware/piezo.toml` (or an identified model) through `generated.rs` (`cargo sim
+//! firmware-params`, docs/firmware.md).
 
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
-use flexarm_core::params::Limits;
+use flexarm_core::params::{ArmParams, Limits};
 use flexarm_core::time::Ticks;
 
 use crate::generated;
@@ -43,8 +44,13 @@ pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &generated::GAIN_100HZ;
 #[cfg(not(feature = "qemu"))]
 pub const OBSERVER_GAIN: &[[f32; 3]; 8] = &generated::GAIN_1KHZ;
 
-/// The piezo patch on link 2 (`firmware/piezo.toml`, through `generated.rs`): the controller's
-/// and, on the QEMU board, the simulated arm's.
+/// The controller's model of the arm (`firmware/piezo.toml` or an identified `model.toml`,
+/// through `generated.rs`).
+pub const ARM: ArmParams<f32> = generated::ARM;
+
+/// The piezo patch on link 2 (`firmware/piezo.toml`, through `generated.rs`): the controller's,
+/// on the modes of [`ARM`]. The QEMU board's simulated arm carries the same patch on the paper's
+/// arm ([`generated::QEMU_SLOPE_DIFF`]).
 pub fn patch() -> PiezoPatch<f32> {
     PiezoPatch {
         x_a: generated::X_A,

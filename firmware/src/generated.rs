@@ -1,4 +1,4 @@
-//! The piezo patch and observer gains the firmware runs (paper's arm, modes = "paper").
+//! The arm model, piezo patch and observer gains the firmware runs.
 //!
 //! Generated: do not edit. Source: `firmware/piezo.toml`. Regenerate with
 //! `cargo sim firmware-params firmware/piezo.toml --out firmware/src/generated.rs`
@@ -6,15 +6,43 @@
 //! checks that `firmware/src/generated.rs` is what `firmware/piezo.toml` gives.
 //!
 //! Observer gains: steady-state Kalman gains (`flexarm_core::observer::design`,
-//! `NoiseModel::default()`) of the paper's arm at rest at `THETA_NOMINAL`, for this patch's
+//! `NoiseModel::default()`) of [`ARM`] at rest at `THETA_NOMINAL`, for this patch's
 //! film map `c_f = k_s Δφ' = [1.2745437e2, -6.4355585e2]` V/(√kg·m).
+
+use flexarm_core::Vector2;
+use flexarm_core::params::{ArmParams, ModalData};
+
+/// The controller's model of the arm (SI; `flexarm_core::params::ArmParams`): the
+/// source's `[arm]` (the paper's values where it has none); its modes:
+/// the paper's frequencies and damping, a uniform link's shapes.
+pub const ARM: ArmParams<f32> = ArmParams {
+    a1: 3e-1,
+    a2: 7e-1,
+    m1: 2e-1,
+    m2: 3e-1,
+    m_h2: 1e0,
+    i_1: 1.7e-1,
+    i_h1: 2.3e-1,
+    i_h2: 1.98e-1,
+    i_2_extra: 0e0,
+    modes: ModalData {
+        omega: Vector2::new(2.9631502e1, 9.044645e1),
+        zeta: Vector2::new(7e-2, 3e-2),
+        mass_integral: Vector2::new(4.2886224e-1, 2.3767647e-1),
+        moment_integral: Vector2::new(2.1809109e-1, 3.480051e-2),
+        tip: Vector2::new(3.6514838e0, -3.6514838e0),
+    },
+};
 
 /// Patch start from joint 2 `x_a` [m].
 pub const X_A: f32 = 9e-2;
 /// Patch length `l_a` [m].
 pub const L_A: f32 = 3.5e-1;
-/// Slope differences `Δφ'_j` across the patch, paper's modes [1/(m·√kg)].
+/// Slope differences `Δφ'_j` across the patch, the modes of [`ARM`] [1/(m·√kg)].
 pub const SLOPE_DIFF: [f32; 2] = [4.550401e0, -2.297636e1];
+/// Slope differences across the patch on the QEMU board's simulated arm (the paper's
+/// arm, uniform link 2, whatever [`ARM`] is) [1/(m·√kg)].
+pub const QEMU_SLOPE_DIFF: [f32; 2] = [4.550401e0, -2.297636e1];
 /// Actuator moment per volt `k_a` [N·m/V].
 pub const K_A: f32 = 1.9369947e-4;
 /// Film volts per radian of slope difference `k_s` [V/rad].

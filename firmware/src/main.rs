@@ -182,7 +182,8 @@ mod app {
 
         let piezo_period = 1.0 / PIEZO_HZ as f32;
         let motor_period = 1.0 / MOTOR_HZ as f32;
-        let mut ctrl = Controller::with_patch(
+        let mut ctrl = Controller::with_model(
+            config::ARM,
             MotorLaw::Tracking,
             JointTrajectory::Trapezoid(Trapezoid::paper()),
             piezo_period,
@@ -214,11 +215,16 @@ mod app {
         #[cfg(feature = "qemu")]
         let board = {
             use flexarm_core::simarm::{SensorModel, SimArm};
-            // The simulated arm is the controller's own model: the paper's arm with the
-            // firmware's patch (`firmware/piezo.toml`).
+            // The simulated arm plays the physical arm: the paper's, with the firmware's patch
+            // on it, whatever model the controller runs (the paper's by default, or one
+            // identified on this arm, docs/identification.md).
+            let [d1, d2] = crate::generated::QEMU_SLOPE_DIFF;
             let sim = SimArm::new(
-                ctrl.motor.model,
-                ctrl.patch,
+                flexarm_core::model::Model::new(flexarm_core::params::ArmParams::default()),
+                flexarm_core::control::piezo::PiezoPatch {
+                    slope_diff: flexarm_core::Vector2::new(d1, d2),
+                    ..ctrl.patch
+                },
                 flexarm_core::Vector4::zeros(),
                 SensorModel::default(),
             );

@@ -1,20 +1,27 @@
-//! `flexarm-sim firmware-params`: the firmware's generated parameters from a `[piezo]` fragment.
+//! `flexarm-sim firmware-params`: the firmware's generated parameters from a model file.
 //!
-//! The firmware runs the paper's arm (`ArmParams::default()`) with the patch described by
-//! `firmware/piezo.toml`. [`render`] reads such a fragment (with
-//! [`flexarm_beam::fragment::read_piezo`], the reader `flexarm-sim run` uses), refuses what the
-//! firmware cannot run, re-designs the observer gain for the patch's film map
+//! The firmware runs the arm model, piezo patch and gain of a model file: the `[piezo]`
+//! fragment `firmware/piezo.toml` (the paper's arm and patch, or the optimizer's patch), or the
+//! `model.toml` that `cargo sim identify` writes (an `[arm]` table and a `[piezo]` table with
+//! the identified `[piezo.computed]` modes, `docs/identification.md`). [`render`] reads it
+//! ([`crate::scenario::read_model`]: the readers `flexarm-sim run` uses), refuses what the
+//! firmware cannot run, designs the observer gain for that arm and the patch's film map
 //! `c_f = k_s Δφ'` at the two motor periods the firmware has (0.001 s on the hardware board,
 //! 0.01 s under QEMU) and returns the Rust source of `firmware/src/generated.rs`.
 //!
+//! The arm: the file's `[arm]` (the paper's values where it has none), with the modes of
+//! `[piezo.computed]` when `piezo.modes = "computed"`, else the paper's frequencies on the
+//! uniform link's shapes. The QEMU board's simulated arm stays the paper's arm whatever the
+//! model (it plays the physical arm the model describes); the file also carries the patch's
+//! slope differences on it ([`qemu_slope_diff`]).
+//!
 //! What the firmware cannot run, refused with a readable error:
-//! - anything `read_piezo` refuses (syntax, unknown or missing key, patch off link 2,
-//!   non-positive `k_c`, `k_a`, `k_s`, inconsistent derived keys);
-//! - `modes = "computed"`: the firmware keeps the paper's modal data (frequencies 4.716 and
-//!   14.395 Hz, uniform-link shapes); a patch for other modes would need another arm model in
-//!   the controller and in the QEMU plant, which this generator does not write;
+//! - anything `read_model` refuses (syntax, unknown table or key, values out of range, patch
+//!   off link 2, non-positive `k_c`, `k_a`, `k_s`, inconsistent derived keys, modes out of
+//!   order);
 //! - a patch that leaves link 2 once rounded to `f32` (the firmware validates it in `f32` and
 //!   would start in the safe state), or values that are not finite in `f32`;
+//! - a patch that does not fit on the QEMU board's link 2 (the paper's, 0.7 m);
 //! - an observer design that fails, or whose constant gain does not give contracting error
 //!   dynamics over the arm's range `θ2 ∈ [−3, 3] rad`.
 //!
@@ -25,7 +32,7 @@
 use std::fmt::{self, Write as _};
 
 use flexarm_beam::design::{DesignModel, Weights};
-use flexarm_beam::fragment::{ModesChoice, PiezoChoice, piezo_fragment, read_piezo};
+use flexarm_beam::fragment::{ModesChoice, PiezoChoice, piezo_fragment};
 use flexarm_beam::optimize::evaluate;
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::PiezoPatch;
@@ -78,8 +85,12 @@ impl Default for Names<'static> {
 pub struct FirmwareParams {
     /// The fragment as read.
     pub choice: PiezoChoice,
-    /// The patch (paper's modes).
+    /// The controller's model of the arm.
+    pub arm: ArmParams<f64>,
+    /// The patch on that arm's modes.
     pub patch: PiezoPatch<f64>,
+    /// The patch's slope differences `Δφ'_j` on the QEMU board's simulated arm.
+    pub qemu_slope_diff: Vector2<f64>,
     /// The piezo gain the controller uses [s].
     pub k_c: f64,
     /// Observer gains, one per entry of [`PERIODS`].
@@ -88,20 +99,19 @@ pub struct FirmwareParams {
 
 /// Reads `fragment_text`, checks that the firmware can run it and designs the observer gains.
 pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
-    let arm = ArmParams::<f64>::default();
-    let choice = read_piezo(fragment_text, arm.a2).map_err(|e| Error(one_line(&e.0)))?;
-    if choice.modes != ModesChoice::Paper {
-        return Err(Error(
-            "`piezo.modes = \"computed\"`: the firmware runs the paper's modal data; \
-             only `modes = \"paper\"` fragments can be generated (docs/firmware.md)"
-                .into(),
-        ));
-    }
+    let (arm, choice) =
+        crate::scenario::read_model(fragment_text).map_err(|e| Error(one_line(&e.0)))?;
     let patch = choice.patch;
     let k_c = choice.controller_k_c();
     // The firmware validates the patch in f32 (Controller::new); refuse here what it would
     // latch as an invalid configuration at boot.
     let p32 = patch.to_f32();
+    let a32 = arm.cast::<f32>();
+    a32.validate().map_err(|e| {
+        Error(format!(
+            "rounded to f32 the arm fails the firmware's check: {e}"
+        ))
+    })?;
     // (name, value in f32, must stay > 0 once rounded)
     let values = [
         ("x_a", p32.x_a, false),
@@ -119,13 +129,14 @@ pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
             )));
         }
     }
-    p32.validate(arm.a2 as f32).map_err(|e| {
+    p32.validate(a32.a2).map_err(|e| {
         Error(format!(
             "rounded to f32 the patch [{}, {} + {}] m fails the firmware's check: {e}",
             p32.x_a, p32.x_a, p32.l_a
         ))
     })?;
 
+    let qemu_slope_diff = qemu_slope_diff(&patch)?;
     let model = Model::new(arm);
     let c_f = film_map(&patch);
     let theta = Vector2::new(THETA_NOMINAL[0] as f64, THETA_NOMINAL[1] as f64);
@@ -146,10 +157,34 @@ pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
     }
     Ok(FirmwareParams {
         choice,
+        arm,
         patch,
+        qemu_slope_diff,
         k_c,
         gains,
     })
+}
+
+/// The slope differences `Δφ'_j` of `patch` on the QEMU board's simulated arm: the paper's
+/// link 2 (uniform, 0.3 kg, 0.7 m), the shapes of [`PiezoPatch::uniform`].
+pub fn qemu_slope_diff(patch: &PiezoPatch<f64>) -> Result<Vector2<f64>, Error> {
+    let paper = ArmParams::<f64>::default();
+    let on_paper = PiezoPatch::uniform(
+        &Default::default(),
+        paper.m2,
+        paper.a2,
+        patch.x_a,
+        patch.l_a,
+    );
+    on_paper.to_f32().validate(paper.a2 as f32).map_err(|e| {
+        Error(format!(
+            "the patch [{}, {}] m does not fit on the QEMU board's arm (the paper's link 2, {} m): {e}",
+            patch.x_a,
+            patch.x_a + patch.l_a,
+            paper.a2
+        ))
+    })?;
+    Ok(on_paper.slope_diff)
 }
 
 /// A message on one line (TOML syntax errors span several, with a caret under the column).
@@ -196,17 +231,27 @@ pub fn render(fragment_text: &str, names: &Names<'_>) -> Result<String, Error> {
 
 /// The first line of every generated parameter file.
 pub const GENERATED_FIRST_LINE: &str =
+    "//! The arm model, piezo patch and observer gains the firmware runs.";
+
+/// The first line files generated before the arm model joined them had.
+const GENERATED_FIRST_LINE_PAPER_ARM: &str =
     "//! The piezo patch and observer gains the firmware runs (paper's arm, modes = \"paper\").";
 
 /// The Rust source for parameters already designed ([`design`]).
 pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
     let f = |x: f64| format!("{:e}", x as f32);
+    let v = |x: Vector2<f64>| format!("Vector2::new({}, {})", f(x.x), f(x.y));
     let c_f = film_map(&p.patch);
     let k_c_source = if p.choice.k_c_paper_modes.is_some() {
         "`piezo.k_c_paper_modes`"
     } else {
         "`piezo.k_c`"
     };
+    let modes_source = match p.choice.modes {
+        ModesChoice::Paper => "the paper's frequencies and damping, a uniform link's shapes",
+        ModesChoice::Computed => "the source's `[piezo.computed]`",
+    };
+    let (a, md) = (&p.arm, &p.arm.modes);
     let mut s = format!(
         "{GENERATED_FIRST_LINE}\n\
          //!\n\
@@ -216,15 +261,43 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
          //! checks that `firmware/src/generated.rs` is what `firmware/piezo.toml` gives.\n\
          //!\n\
          //! Observer gains: steady-state Kalman gains (`flexarm_core::observer::design`,\n\
-         //! `NoiseModel::default()`) of the paper's arm at rest at `THETA_NOMINAL`, for this patch's\n\
+         //! `NoiseModel::default()`) of [`ARM`] at rest at `THETA_NOMINAL`, for this patch's\n\
          //! film map `c_f = k_s Δφ' = [{cf0}, {cf1}]` V/(√kg·m).\n\
+         \n\
+         use flexarm_core::Vector2;\n\
+         use flexarm_core::params::{{ArmParams, ModalData}};\n\
+         \n\
+         /// The controller's model of the arm (SI; `flexarm_core::params::ArmParams`): the\n\
+         /// source's `[arm]` (the paper's values where it has none); its modes:\n\
+         /// {modes_source}.\n\
+         pub const ARM: ArmParams<f32> = ArmParams {{\n\
+         \x20   a1: {a1},\n\
+         \x20   a2: {a2},\n\
+         \x20   m1: {m1},\n\
+         \x20   m2: {m2},\n\
+         \x20   m_h2: {m_h2},\n\
+         \x20   i_1: {i_1},\n\
+         \x20   i_h1: {i_h1},\n\
+         \x20   i_h2: {i_h2},\n\
+         \x20   i_2_extra: {i_2_extra},\n\
+         \x20   modes: ModalData {{\n\
+         \x20       omega: {omega},\n\
+         \x20       zeta: {zeta},\n\
+         \x20       mass_integral: {mass},\n\
+         \x20       moment_integral: {moment},\n\
+         \x20       tip: {tip},\n\
+         \x20   }},\n\
+         }};\n\
          \n\
          /// Patch start from joint 2 `x_a` [m].\n\
          pub const X_A: f32 = {x_a};\n\
          /// Patch length `l_a` [m].\n\
          pub const L_A: f32 = {l_a};\n\
-         /// Slope differences `Δφ'_j` across the patch, paper's modes [1/(m·√kg)].\n\
+         /// Slope differences `Δφ'_j` across the patch, the modes of [`ARM`] [1/(m·√kg)].\n\
          pub const SLOPE_DIFF: [f32; 2] = [{sd0}, {sd1}];\n\
+         /// Slope differences across the patch on the QEMU board's simulated arm (the paper's\n\
+         /// arm, uniform link 2, whatever [`ARM`] is) [1/(m·√kg)].\n\
+         pub const QEMU_SLOPE_DIFF: [f32; 2] = [{qd0}, {qd1}];\n\
          /// Actuator moment per volt `k_a` [N·m/V].\n\
          pub const K_A: f32 = {k_a};\n\
          /// Film volts per radian of slope difference `k_s` [V/rad].\n\
@@ -235,10 +308,26 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
         out = names.out,
         cf0 = f(c_f.x),
         cf1 = f(c_f.y),
+        a1 = f(a.a1),
+        a2 = f(a.a2),
+        m1 = f(a.m1),
+        m2 = f(a.m2),
+        m_h2 = f(a.m_h2),
+        i_1 = f(a.i_1),
+        i_h1 = f(a.i_h1),
+        i_h2 = f(a.i_h2),
+        i_2_extra = f(a.i_2_extra),
+        omega = v(md.omega),
+        zeta = v(md.zeta),
+        mass = v(md.mass_integral),
+        moment = v(md.moment_integral),
+        tip = v(md.tip),
         x_a = f(p.patch.x_a),
         l_a = f(p.patch.l_a),
         sd0 = f(p.patch.slope_diff.x),
         sd1 = f(p.patch.slope_diff.y),
+        qd0 = f(p.qemu_slope_diff.x),
+        qd1 = f(p.qemu_slope_diff.y),
         k_a = f(p.patch.k_a),
         k_s = f(p.patch.k_s),
         k_c = f(p.k_c),
@@ -294,7 +383,8 @@ pub fn paper_fragment() -> Result<String, Error> {
 /// Whether `text` is a generated parameter file (its first line is the one [`source`] writes),
 /// which `firmware-params` may replace without `--force`.
 pub fn is_generated_source(text: &str) -> bool {
-    text.lines().next() == Some(GENERATED_FIRST_LINE)
+    let first = text.lines().next();
+    first == Some(GENERATED_FIRST_LINE) || first == Some(GENERATED_FIRST_LINE_PAPER_ARM)
 }
 
 /// Whether `text` is a `[piezo]` fragment a flexarm command wrote (the paper's, by

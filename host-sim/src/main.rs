@@ -373,13 +373,23 @@ fn main_result(cli: Cli) -> Result<()> {
                 fragment: &fragment_name,
                 out: &out_name,
             };
-            let p = firmware_params::design(&text).map_err(|e| format!("{fragment_name}: {e}"))?;
+            let p = firmware_params::design(&text)
+                .map_err(|e| flexarm_beam::config::at_line(&path, &text, &e.0))?;
             let source = firmware_params::source(&p, &names);
             refuse_foreign(&out, force, firmware_params::is_generated_source)?;
             write_atomic(&out, source.as_bytes())?;
             println!(
-                "Wrote {out_name} from {fragment_name}: x_a = {} m, l_a = {} m, k_c = {} s; observer gains for 1 kHz and 100 Hz.",
-                p.patch.x_a, p.patch.l_a, p.k_c
+                "Wrote {out_name} from {fragment_name}: {} arm (modes {:.4} and {:.4} Hz), x_a = {} m, l_a = {} m, k_c = {} s; observer gains for 1 kHz and 100 Hz.",
+                if p.arm == flexarm_core::params::ArmParams::default() {
+                    "the paper's"
+                } else {
+                    "the file's"
+                },
+                p.arm.modes.omega.x / std::f64::consts::TAU,
+                p.arm.modes.omega.y / std::f64::consts::TAU,
+                p.patch.x_a,
+                p.patch.l_a,
+                p.k_c
             );
             Ok(())
         }

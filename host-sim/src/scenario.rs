@@ -26,7 +26,7 @@ use std::path::Path;
 use flexarm_core::control::motor::MotorLaw;
 use flexarm_core::control::piezo::PiezoGains;
 use flexarm_core::kinematics::{Elbow, Planar2};
-use flexarm_core::params::ModalData;
+use flexarm_core::params::{ArmParams, ModalData};
 use flexarm_core::trajectory::{Circle, JointTrajectory, Profile, Trapezoid};
 use flexarm_core::{Vector2, Vector4};
 use serde::Deserialize;
@@ -341,6 +341,43 @@ struct ArmSpec {
     zeta: Option<[f64; 2]>,
 }
 
+impl ArmSpec {
+    /// The arm: the paper's, with the values the table gives; modes of a uniform link of the
+    /// table's `m2` and `a2` at its `frequency_hz` and `zeta` when it gives any of those four.
+    fn params(&self) -> Result<ArmParams<f64>, ScenarioError> {
+        arm_ranges(self)?;
+        let a = self;
+        let mut arm = ArmParams::<f64>::default();
+        for (dst, src) in [
+            (&mut arm.a1, a.a1),
+            (&mut arm.a2, a.a2),
+            (&mut arm.m1, a.m1),
+            (&mut arm.m2, a.m2),
+            (&mut arm.m_h2, a.m_h2),
+            (&mut arm.i_1, a.i_1),
+            (&mut arm.i_h1, a.i_h1),
+            (&mut arm.i_h2, a.i_h2),
+            (&mut arm.i_2_extra, a.i_2_extra),
+        ] {
+            if let Some(v) = src {
+                *dst = v;
+            }
+        }
+        let omega = a.frequency_hz.map_or(arm.modes.omega, |f| {
+            Vector2::new(f[0], f[1]) * std::f64::consts::TAU
+        });
+        let zeta = a.zeta.map_or(arm.modes.zeta, |z| Vector2::new(z[0], z[1]));
+        if a.m2.is_some() || a.a2.is_some() || a.frequency_hz.is_some() || a.zeta.is_some() {
+            if !(arm.m2 > 0.0 && arm.a2 > 0.0) {
+                return err("`arm.m2` and `arm.a2` must be > 0");
+            }
+            arm.modes = ModalData::uniform(arm.m2, arm.a2, omega, zeta);
+        }
+        arm.validate().map_err(|e| param("arm", e))?;
+        Ok(arm)
+    }
+}
+
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct SensorsSpec {
@@ -371,6 +408,36 @@ pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| ScenarioError(format!("{}: {e}", path.display())))?;
     parse(&text).map_err(|e| ScenarioError(flexarm_beam::config::at_line(path, &text, &e.0)))
+}
+
+/// A model of the arm on its own (`cargo sim identify` writes one; `cargo sim firmware-params`
+/// reads it): an optional `[arm]` table and a `[piezo]` table, nothing else. Returns the arm
+/// (the paper's where `[arm]` leaves a value out, its modes those of `[piezo.computed]` when
+/// `piezo.modes = "computed"`) and the patch as read. Errors name the key, as a scenario's do.
+pub fn read_model(
+    text: &str,
+) -> Result<(ArmParams<f64>, flexarm_beam::fragment::PiezoChoice), ScenarioError> {
+    #[derive(Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct ModelFile {
+        #[serde(default)]
+        arm: ArmSpec,
+        // Read by `read_piezo`; named here so that no other table passes.
+        piezo: Option<toml::Table>,
+    }
+    let f: ModelFile = toml::from_str(text)
+        .map_err(|e| ScenarioError(flexarm_beam::config::toml_error(text, &e)))?;
+    if f.piezo.is_none() {
+        return err("no [piezo] table: a model needs the patch (`cargo sim identify` writes one)");
+    }
+    let mut arm = f.arm.params()?;
+    let choice = flexarm_beam::fragment::read_piezo(text, arm.a2)
+        .map_err(|e| ScenarioError(e.to_string()))?;
+    if let Some(md) = choice.modal_data {
+        arm.modes = md;
+        arm.validate().map_err(|e| param("piezo.computed", e))?;
+    }
+    Ok((arm, choice))
 }
 
 /// A parameter error of one table as `` `table.key`: what is wrong ``.
@@ -411,11 +478,8 @@ fn within(key: &str, v: Option<f64>, lo: f64, hi: f64, unit: &str) -> Result<(),
     }
 }
 
-/// Physical ranges of the values a file gives (SI): beyond them the model, the numerics or
-/// the `f32` controller stop being meaningful. The finer rules (f32 conversion, the rates'
-/// relations, the run's size) are `SimConfig::validate`'s.
-fn ranges(f: &File) -> Result<(), ScenarioError> {
-    let a = &f.arm;
+/// The `[arm]` table's values within their physical ranges (SI).
+fn arm_ranges(a: &ArmSpec) -> Result<(), ScenarioError> {
     for (key, v) in [("arm.a1", a.a1), ("arm.a2", a.a2)] {
         within(key, v, 1e-2, 10.0, "m")?;
     }
@@ -436,6 +500,13 @@ fn ranges(f: &File) -> Result<(), ScenarioError> {
     for v in a.zeta.iter().flatten() {
         within("arm.zeta", Some(*v), 0.0, 1.0, "")?;
     }
+    Ok(())
+}
+
+/// Physical ranges of the values a file gives (SI): beyond them the model, the numerics or
+/// the `f32` controller stop being meaningful. The finer rules (f32 conversion, the rates'
+/// relations, the run's size) are `SimConfig::validate`'s.
+fn ranges(f: &File) -> Result<(), ScenarioError> {
     let c = &f.controller;
     within("controller.k_c", c.k_c, 0.0, 1e6, "s")?;
     within("controller.cutoff_hz", c.cutoff_hz, 1e-2, 1e6, "Hz")?;
@@ -509,34 +580,8 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
     ranges(&f)?;
 
     // Arm.
-    let a = &f.arm;
-    let arm = &mut cfg.arm;
-    for (dst, src) in [
-        (&mut arm.a1, a.a1),
-        (&mut arm.a2, a.a2),
-        (&mut arm.m1, a.m1),
-        (&mut arm.m2, a.m2),
-        (&mut arm.m_h2, a.m_h2),
-        (&mut arm.i_1, a.i_1),
-        (&mut arm.i_h1, a.i_h1),
-        (&mut arm.i_h2, a.i_h2),
-        (&mut arm.i_2_extra, a.i_2_extra),
-    ] {
-        if let Some(v) = src {
-            *dst = v;
-        }
-    }
-    let omega = a.frequency_hz.map_or(arm.modes.omega, |f| {
-        Vector2::new(f[0], f[1]) * std::f64::consts::TAU
-    });
-    let zeta = a.zeta.map_or(arm.modes.zeta, |z| Vector2::new(z[0], z[1]));
-    if a.m2.is_some() || a.a2.is_some() || a.frequency_hz.is_some() || a.zeta.is_some() {
-        if !(arm.m2 > 0.0 && arm.a2 > 0.0) {
-            return err("`arm.m2` and `arm.a2` must be > 0");
-        }
-        arm.modes = ModalData::uniform(arm.m2, arm.a2, omega, zeta);
-    }
-    arm.validate().map_err(|e| param("arm", e))?;
+    cfg.arm = f.arm.params()?;
+    let arm = &cfg.arm;
     cfg.patch = flexarm_core::control::piezo::PiezoPatch::uniform(
         &flexarm_core::control::piezo::PiezoMaterial::default(),
         arm.m2,

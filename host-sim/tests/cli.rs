@@ -231,9 +231,9 @@ fn firmware_params_refuses_with_one_error_line() {
             "unknown field `speed`",
         ),
         (
-            "computed.toml",
-            good.replace("modes = \"paper\"", "modes = \"computed\""),
-            "paper's modal data",
+            "controller.toml",
+            format!("{good}\n[controller]\nk_c = 1.0\n"),
+            "unknown field `controller`",
         ),
         ("syntax.toml", "[piezo\n".to_string(), "unclosed table"),
     ];
@@ -255,6 +255,11 @@ fn firmware_params_refuses_with_one_error_line() {
             "{name}: {stderr}"
         );
         assert!(!out.exists(), "{name}: nothing written on error");
+        // The line of the key it is about.
+        if name == "off.toml" {
+            let line = text.lines().position(|l| l.starts_with("x_a")).unwrap() + 1;
+            assert!(lines[0].contains(&format!("off.toml:{line}: ")), "{stderr}");
+        }
     }
     let (ok, _, stderr) = sim(&[
         "firmware-params",

@@ -1,6 +1,7 @@
 //! The firmware's generated parameters: `firmware/src/generated.rs` is what `firmware/piezo.toml`
 //! renders to, the paper's patch gives the blessed observer gains, another patch gets its own,
-//! and what the firmware cannot run is a readable one-line error.
+//! an identified model gets its arm and its gains, and what the firmware cannot run is a
+//! readable one-line error.
 
 use flexarm_beam::design::{DesignModel, Weights};
 use flexarm_beam::fragment::{ModesChoice, piezo_fragment, read_piezo};
@@ -43,6 +44,9 @@ fn paper_fragment_is_the_cores_paper_patch() {
 #[test]
 fn paper_patch_gives_the_blessed_observer_gains() {
     let p = design(&paper_fragment().unwrap()).unwrap();
+    // The paper's arm, and the QEMU board's arm (the paper's) sees the same patch.
+    assert_eq!(p.arm, ArmParams::default());
+    assert!((p.qemu_slope_diff - p.patch.slope_diff).abs().max() < 1e-9);
     for (g, table) in p.gains.iter().zip([&GAIN_1KHZ, &GAIN_100HZ]) {
         for (i, row) in table.iter().enumerate() {
             for (j, blessed) in row.iter().enumerate() {
@@ -96,6 +100,74 @@ fn another_patch_gets_its_own_film_gains() {
     assert!(src.contains(&format!("pub const K_C: f32 = {:e};", p.k_c as f32)));
 }
 
+/// The model `cargo sim identify` writes for an arm off the paper's by what the QEMU arm's
+/// identification finds (modes 2.5 % low, inertias 6 to 9 % high, film products 10 % high).
+fn identified() -> (ArmParams<f64>, PiezoPatch<f64>, String) {
+    let mut arm = ArmParams::<f64>::default();
+    arm.i_h1 *= 1.06;
+    arm.i_h2 *= 1.07;
+    arm.m2 *= 1.09;
+    arm.modes = flexarm_core::params::ModalData::uniform(
+        arm.m2,
+        arm.a2,
+        arm.modes.omega * 0.975,
+        arm.modes.zeta * 1.2,
+    );
+    let mut patch = PiezoPatch::<f64>::paper();
+    patch.slope_diff *= 1.1f64.sqrt();
+    let text = flexarm_sim::identify::model::model_fragment(&arm, &patch, 3.162);
+    (arm, patch, text)
+}
+
+#[test]
+fn an_identified_model_gets_its_arm_and_its_own_gains() {
+    let (arm, patch, text) = identified();
+    let p = design(&text).unwrap();
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
+    for (got, want) in [
+        (p.arm.m2, arm.m2),
+        (p.arm.i_h1, arm.i_h1),
+        (p.arm.i_h2, arm.i_h2),
+        (p.arm.modes.omega.x, arm.modes.omega.x),
+        (p.arm.modes.omega.y, arm.modes.omega.y),
+        (p.arm.modes.zeta.x, arm.modes.zeta.x),
+        (p.arm.modes.mass_integral.y, arm.modes.mass_integral.y),
+        (p.arm.modes.tip.x, arm.modes.tip.x),
+        (p.patch.slope_diff.x, patch.slope_diff.x),
+        (p.k_c, 3.162),
+    ] {
+        assert!(close(got, want), "{got} against {want}");
+    }
+    // The QEMU board's arm stays the paper's: the patch's slope differences on it are the
+    // paper's, not the identified ones.
+    let paper = design(&paper_fragment().unwrap()).unwrap();
+    assert!((p.qemu_slope_diff - paper.patch.slope_diff).abs().max() < 1e-9);
+    // The observer is designed for the identified arm: its modal rows move.
+    for k in 0..2 {
+        let rel = (4..8)
+            .flat_map(|i| (0..3).map(move |j| (i, j)))
+            .map(|(i, j)| (p.gains[k][(i, j)] / paper.gains[k][(i, j)] - 1.0).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            rel > 0.02,
+            "period {k}: observer gains barely changed ({rel})"
+        );
+    }
+    // The source carries the arm for `Controller::with_model`.
+    let src = render(&text, &Names::default()).unwrap();
+    for needle in [
+        "pub const ARM: ArmParams<f32> = ArmParams {".to_string(),
+        format!("    m2: {:e},", arm.m2 as f32),
+        format!(
+            "        omega: Vector2::new({:e}, {:e}),",
+            arm.modes.omega.x as f32, arm.modes.omega.y as f32
+        ),
+        "the source's `[piezo.computed]`".to_string(),
+    ] {
+        assert!(src.contains(&needle), "{needle} not in\n{src}");
+    }
+}
+
 #[test]
 fn what_the_firmware_cannot_run_is_a_readable_error() {
     let ok = paper_fragment().unwrap();
@@ -120,8 +192,28 @@ fn what_the_firmware_cannot_run_is_a_readable_error() {
             "unknown field `gain`",
         ),
         (
-            set("modes", "\"computed\""),
-            "the firmware runs the paper's modal data",
+            ok.replace("[piezo]\n", "[controller]\nk_c = 3.0\n\n[piezo]\n"),
+            "unknown field `controller`",
+        ),
+        // The design beam's modes out of order.
+        (
+            set("modes", "\"computed\"").replace("omega = [", "omega = [1e3, "),
+            "omega",
+        ),
+        (
+            set("modes", "\"computed\"")
+                .split("\n[piezo.computed]")
+                .next()
+                .unwrap_or_default()
+                .to_string(),
+            "needs a [piezo.computed] table",
+        ),
+        ("[arm]\na2 = 0.3\n".to_string() + &ok, "must lie on link 2"),
+        ("[arm]\nm2 = -0.3\n".to_string() + &ok, "`arm.m2` = -0.3"),
+        // On a longer link 2 of the identified arm, but off the QEMU board's (0.7 m).
+        (
+            "[arm]\na2 = 1.0\n".to_string() + &set("x_a", "0.5"),
+            "does not fit on the QEMU board's arm",
         ),
         // On the link in f64 (0.3 + 0.4 = 0.7), off it once rounded to f32 as the firmware
         // checks it.
