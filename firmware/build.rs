@@ -8,6 +8,7 @@ fn main() {
     println!("cargo:rerun-if-changed=../memory.x");
     println!("cargo:rerun-if-changed=budgets.txt");
     budgets();
+    generated();
     if !target.starts_with("thumb") {
         return;
     }
@@ -16,6 +17,44 @@ fn main() {
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg=-Tlink.x");
     println!("cargo:rustc-link-arg=-Tdefmt.x");
+}
+
+/// The generated parameters the firmware builds with, as `OUT_DIR/generated.rs` (included by
+/// `mod generated` in main.rs): `src/generated.rs`, or the file `FLEXARM_PARAMS` names (a path
+/// relative to the repository root, or absolute), for example the parameters of a model that
+/// `cargo sim identify` measured (`cargo sim firmware-params out/model/model.toml --out
+/// target/identified.rs`, then `FLEXARM_PARAMS=target/identified.rs cargo fw-qemu`). Only a
+/// file `cargo sim firmware-params` wrote is taken; its inner doc comments become plain
+/// comments (`include!` takes items only).
+fn generated() {
+    const FIRST_LINE: &str = "//! The arm model, piezo patch and observer gains the firmware runs.";
+    println!("cargo:rerun-if-env-changed=FLEXARM_PARAMS");
+    let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it")).join("..");
+    let (path, name) = match env::var_os("FLEXARM_PARAMS") {
+        Some(p) if !p.is_empty() => (root.join(&p), p.to_string_lossy().into_owned()),
+        _ => (
+            PathBuf::from("src/generated.rs"),
+            "firmware/src/generated.rs".into(),
+        ),
+    };
+    println!("cargo:rerun-if-changed={}", path.display());
+    let text = fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("FLEXARM_PARAMS: cannot read {name}: {e}"));
+    if text.lines().next() != Some(FIRST_LINE) {
+        panic!(
+            "FLEXARM_PARAMS: {name} is not a file `cargo sim firmware-params` wrote (regenerate it)"
+        );
+    }
+    let body: String = text
+        .lines()
+        .map(|l| {
+            l.strip_prefix("//!")
+                .map_or(l.to_string(), |rest| format!("//{rest}"))
+        })
+        .map(|l| l + "\n")
+        .collect();
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    fs::write(out.join("generated.rs"), body).expect("OUT_DIR is writable");
 }
 
 /// `budgets.txt` (`key = value` lines) as constants `BUDGET_<KEY>: u32` for the benchmark build.

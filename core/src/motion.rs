@@ -89,7 +89,9 @@ impl<T: Real> MotionLimits<T> {
     /// evidence): following error 0.05 rad (the truth plant's worst closed-loop error over the
     /// paper's moves and their Monte Carlo, times a margin); overspeed 4 rad/s (the moves are
     /// limited to 3); runaway at 0.2 rad/s against a torque of 1 N·m with an error of 0.01 rad,
-    /// for 10 ms; frozen encoder at 3 N·m of one sign for 20 ms while the reference moves at
+    /// for 10 ms (the error scaled up as `K_p` is scaled down on a slow loop,
+    /// [`crate::params::Gains::default_for`]: healthy tracking errors grow as `1/K_p`, 0.022
+    /// rad at 100 Hz); frozen encoder at 3 N·m of one sign for 20 ms while the reference moves at
     /// 0.1 rad/s or more (the windows at least 2 and 3 periods); soft limits at the sensors'
     /// range (θ1 ±π, θ2 ±2.8 rad) with a 0.02 rad margin beyond the stopping distance at
     /// 10 rad/s²; motors rated 4 N·m continuous with a 20 s winding time constant, derating from
@@ -107,7 +109,7 @@ impl<T: Real> MotionLimits<T> {
             speed: both(4.0),
             runaway_speed: T::c(0.2),
             runaway_torque: both(1.0),
-            runaway_error: T::c(0.01),
+            runaway_error: T::c(0.01 / crate::params::gain_scale(motor_hz)),
             runaway_periods: periods(0.010, 2),
             frozen_torque: both(3.0),
             frozen_periods: periods(0.020, 3),

@@ -257,15 +257,22 @@ impl<T: Real> Default for Gains<T> {
 /// `θ2 = 0`; test `the_velocity_loop_rate_is_the_models`).
 pub const PAPER_VELOCITY_LOOP_RATE: f64 = 220.5;
 
+/// The factor [`Gains::default_for`] scales the paper's joint `K_p` by at a motor loop of
+/// `motor_hz`: `min(1, motor_hz / PAPER_VELOCITY_LOOP_RATE)` (0.4535 at 100 Hz, 1 from
+/// 220.5 Hz up).
+pub fn gain_scale(motor_hz: u32) -> f64 {
+    (f64::from(motor_hz.max(1)) / PAPER_VELOCITY_LOOP_RATE).min(1.0)
+}
+
 impl<T: Real> Gains<T> {
     /// The paper's gains for a motor loop of `motor_hz`: its joint `K_p` scaled down, when the
     /// loop is slow, until the velocity loop's fastest rate times the period is at most 1
-    /// ([`PAPER_VELOCITY_LOOP_RATE`]). The sampled loop `ṽ ← (1 − λT) ṽ` diverges for
-    /// `λT > 2`: at 100 Hz the paper's gains give `λT = 2.2`, and the QEMU board's hold
-    /// settled into a limit cycle, its joint-1 torque flipping by about ±4 N·m every period.
-    /// At 1 kHz (`λT = 0.22`) and above the gains are the paper's.
+    /// ([`PAPER_VELOCITY_LOOP_RATE`], [`gain_scale`]). The sampled loop `ṽ ← (1 − λT) ṽ`
+    /// diverges for `λT > 2`: at 100 Hz the paper's gains give `λT = 2.2`, and the QEMU
+    /// board's hold settled into a limit cycle, its joint-1 torque flipping by about ±4 N·m
+    /// every period. At 1 kHz (`λT = 0.22`) and above the gains are the paper's.
     pub fn default_for(motor_hz: u32) -> Self {
-        let scale = (f64::from(motor_hz) / PAPER_VELOCITY_LOOP_RATE).min(1.0);
+        let scale = gain_scale(motor_hz);
         let mut g = Self::default();
         g.kp.x *= T::c(scale);
         g.kp.y *= T::c(scale);

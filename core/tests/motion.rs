@@ -451,16 +451,26 @@ fn the_trend_checks_judge_trends_not_samples() {
     use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
     let l = MotionLimits::<f32>::default_for(100);
     assert_eq!((l.runaway_periods, l.frozen_periods), (2, 3));
+    // The runaway's error threshold grows as K_p shrinks on a slow loop (0.01 rad from the
+    // velocity loop's 220.5 Hz up).
+    let scale = flexarm_core::params::gain_scale(100) as f32;
+    assert!((l.runaway_error - 0.01 / scale).abs() < 1e-7 && l.runaway_error > 0.022);
+    assert_eq!(MotionLimits::<f32>::default_for(1000).runaway_error, 0.01);
     let sample = |theta: f32, theta_d: f32, speed: f32, tau: f32| MotionSample {
         theta: Vector2::new(theta, 0.0),
         theta_d: Vector2::new(theta_d, 0.0),
         speed: Vector2::new(speed, 0.0),
         tau: Vector2::new(tau, 0.0),
     };
-    // Runaway: 0.02 rad off, speeding up from 0.3 rad/s against −2 N·m.
+    // Runaway: 0.03 rad off, speeding up from 0.3 rad/s against −2 N·m; 0.02 rad off is
+    // within a 100 Hz loop's tracking.
     let mut m = MotionMonitor::new();
     let calm = sample(0.0, 0.0, 0.0, 0.0);
-    let runaway = |v: f32| sample(0.02, 0.0, v, -2.0);
+    let runaway = |v: f32| sample(0.03, 0.0, v, -2.0);
+    let near = |v: f32| sample(0.02, 0.0, v, -2.0);
+    for v in [0.3, 0.4, 0.5, 0.6] {
+        assert_eq!(m.check(&l, &near(v)), Verdict::Clear);
+    }
     assert_eq!(m.check(&l, &calm), Verdict::Clear);
     assert_eq!(m.check(&l, &runaway(0.3)), Verdict::Clear);
     assert_eq!(m.check(&l, &calm), Verdict::Clear);
@@ -490,7 +500,7 @@ fn a_runaway_is_named_before_the_frozen_reading_it_causes() {
     let l = MotionLimits::<f32>::default_for(100);
     let mut m = MotionMonitor::new();
     let sample = |k: f32| MotionSample {
-        theta: Vector2::new(0.5, 0.02),
+        theta: Vector2::new(0.5, 0.03),
         theta_d: Vector2::new(0.5 + 0.002 * k, 0.0),
         // 0, 0.1, 0.3, 0.6 rad/s: joint 2 counts from the third sample, joint 1 from the second.
         speed: Vector2::new(0.0, 0.05 * k * (k - 1.0)),

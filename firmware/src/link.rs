@@ -517,10 +517,13 @@ fn hello() -> Hello {
     }
 }
 
-/// FNV-1a over the bits of the parameters the firmware boots with: the patch, the motor law's
-/// gains, the piezo gains, the limits and the observer gain table. Two firmwares with the same
-/// hash boot with the same controller numbers (a `Set` over the link changes them afterwards).
+/// FNV-1a over the bits of the parameters the firmware boots with: the arm model, the patch,
+/// the motor law's gains, the piezo gains, the limits and the observer gain table. Two
+/// firmwares with the same hash boot with the same controller numbers (a `Set` over the link
+/// changes them afterwards).
 pub fn params_hash() -> u32 {
+    let a = crate::config::ARM;
+    let md = a.modes;
     let p = crate::config::patch();
     let m = crate::config::motor_gains();
     let g = crate::config::piezo_gains();
@@ -531,6 +534,29 @@ pub fn params_hash() -> u32 {
             h = (h ^ u32::from(b)).wrapping_mul(0x0100_0193);
         }
     };
+    for x in [
+        a.a1,
+        a.a2,
+        a.m1,
+        a.m2,
+        a.m_h2,
+        a.i_1,
+        a.i_h1,
+        a.i_h2,
+        a.i_2_extra,
+    ] {
+        add(x);
+    }
+    for v in [
+        md.omega,
+        md.zeta,
+        md.mass_integral,
+        md.moment_integral,
+        md.tip,
+    ] {
+        add(v.x);
+        add(v.y);
+    }
     for x in [p.x_a, p.l_a, p.slope_diff.x, p.slope_diff.y, p.k_a, p.k_s] {
         add(x);
     }

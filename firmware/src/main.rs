@@ -23,9 +23,13 @@ mod clock;
 mod config;
 mod emergency;
 mod stack;
-// Generated from firmware/piezo.toml; each board uses one of its two observer gain tables.
+/// The generated parameters (`cargo sim firmware-params`): `src/generated.rs`, from
+/// `firmware/piezo.toml`, or the file `FLEXARM_PARAMS` names at build time (build.rs copies it
+/// in). Each board uses one of its two observer gain tables.
 #[allow(dead_code)]
-mod generated;
+mod generated {
+    include!(concat!(env!("OUT_DIR"), "/generated.rs"));
+}
 mod link;
 mod stats;
 mod telemetry;
@@ -291,10 +295,13 @@ mod app {
         let (rx_producer, rx_consumer) = cx.local.rx_queue.split();
         let serial = crate::link::Serial::new(dp.USART1, &dp.RCC);
         defmt::info!(
-            "flexarm firmware: piezo loop {=u32} Hz, motor loop {=u32} Hz, supervisor {=u32} Hz",
+            "flexarm firmware: piezo loop {=u32} Hz, motor loop {=u32} Hz, supervisor {=u32} Hz; the arm model's modes {=f32} and {=f32} Hz, parameters {=u32:08x}",
             PIEZO_HZ,
             MOTOR_HZ,
-            SUPERVISOR_HZ
+            SUPERVISOR_HZ,
+            config::ARM.modes.omega.x / core::f32::consts::TAU,
+            config::ARM.modes.omega.y / core::f32::consts::TAU,
+            crate::link::params_hash()
         );
         (
             Shared {

@@ -27,6 +27,18 @@ fn generated_file_is_up_to_date_with_the_fragment() {
     );
 }
 
+/// `firmware/build.rs` takes a `FLEXARM_PARAMS` file only if it starts with the line the
+/// generator writes: the two must agree.
+#[test]
+fn the_firmware_build_knows_the_generators_first_line() {
+    let build = std::fs::read_to_string(repo("firmware/build.rs")).unwrap();
+    let first = flexarm_sim::firmware_params::GENERATED_FIRST_LINE;
+    assert!(
+        build.contains(&format!("const FIRST_LINE: &str = {first:?};")),
+        "firmware/build.rs does not check for {first:?}"
+    );
+}
+
 #[test]
 fn paper_fragment_is_the_cores_paper_patch() {
     let text = paper_fragment().unwrap();

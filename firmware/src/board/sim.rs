@@ -1,5 +1,5 @@
 //! The QEMU board: the arm simulated inside the firmware (the core's model in `f32`, RK4, one
-//! step per piezo period), with quantized encoders and film ADC. Its enable and fault lines are
+//! step per piezo period of the firmware's clock), with quantized encoders and film ADC. Its enable and fault lines are
 //! in-memory `embedded-hal` pins, so the same pin logic runs as on hardware.
 
 use core::convert::Infallible;
@@ -142,6 +142,8 @@ pub struct SimBoard {
     frozen: Option<f32>,
     /// The clock at the last tick.
     last_tick: Option<u32>,
+    /// Clock counts passed and not yet stepped (less than a piezo period after a tick).
+    owed: u32,
 }
 
 impl SimBoard {
@@ -157,6 +159,7 @@ impl SimBoard {
             steps: 0,
             frozen: None,
             last_tick: None,
+            owed: 0,
         }
     }
 }
@@ -242,18 +245,24 @@ impl Board for SimBoard {
     fn motor_period(&mut self, t: f32) {
         self.run.observe(&self.arm, self.diverged, t);
     }
-    /// One plant step per piezo period that has passed since the last tick: one, except when
-    /// QEMU's real-time mode (`-icount sleep=on`: `scripts/qemu-serve`, the link's flood
-    /// session) drops timer interrupts under the host's load, which left the arm standing still
-    /// for up to half of the board's time (426 piezo periods in a second of 1000). Under
-    /// `sleep=off` a period is 1.03 of its nominal length (docs/firmware.md), which rounds to one.
+    /// The plant follows the firmware's clock (`crate::clock`, QEMU's virtual time): one step
+    /// per piezo period of it that has passed, the remainder carried to the next tick. QEMU's
+    /// piezo timer comes 3 % late (docs/firmware.md: 970 interrupts per 100 motor periods), so
+    /// one step per interrupt left the arm 3 % behind the motor loop's time, which the modes
+    /// and inertias identified on it showed (docs/identification.md); and QEMU's real-time
+    /// mode (`-icount sleep=on`: `scripts/qemu-serve`, the link's flood session) drops timer
+    /// interrupts under the host's load, which left the arm standing still for up to half of
+    /// the board's time. At most [`MAX_CATCH_UP`] steps a tick.
     fn tick(&mut self) {
         let now = crate::clock::now();
-        let periods = self.last_tick.map_or(1, |last| {
-            (now.wrapping_sub(last) + PIEZO_PERIOD_COUNTS / 2) / PIEZO_PERIOD_COUNTS
-        });
+        let elapsed = self
+            .last_tick
+            .map_or(PIEZO_PERIOD_COUNTS, |last| now.wrapping_sub(last));
         self.last_tick = Some(now);
-        for _ in 0..periods.clamp(1, MAX_CATCH_UP) {
+        let owed = self.owed.saturating_add(elapsed);
+        let periods = owed / PIEZO_PERIOD_COUNTS;
+        self.owed = owed % PIEZO_PERIOD_COUNTS;
+        for _ in 0..periods.min(MAX_CATCH_UP) {
             self.step_plant();
         }
     }
