@@ -1,9 +1,10 @@
-//! `identify friction`, `modes` and `inertia`: the simulator's experiments
+//! `identify friction`, `modes`, `decay` and `inertia`: the simulator's experiments
 //! (`flexarm_sim::identify`, docs/identification.md) run on the arm over the link, with the
 //! same fits and files. Friction: the same constant-speed trapezoids, out and back for each
 //! joint from where the arm holds, the same cruise averages (the firmware's torque commands and
 //! its estimated angles). Modes: the same blocks of bias steps and moves at the same pose.
-//! Inertia: the same random trapezoids of both joints about the same pose.
+//! Decay: the same taps by the patch at the same pose. Inertia: the same random trapezoids of
+//! both joints about the same pose.
 
 use std::time::Duration;
 
@@ -11,8 +12,9 @@ use flexarm_core::Vector2;
 use flexarm_core::trajectory::JointTrajectory;
 use flexarm_link::Command;
 use flexarm_link::msg::{Mode, Move, Param, Telemetry};
+use flexarm_sim::identify::decay::DecayPlan;
 use flexarm_sim::identify::inertia::{self, InertiaPlan};
-use flexarm_sim::identify::modes::{ModesPlan, excitation};
+use flexarm_sim::identify::modes::{Excitation, ModesPlan, excitation};
 use flexarm_sim::identify::{self, Cruise, Friction};
 use flexarm_sim::sim::Sample;
 
@@ -146,20 +148,43 @@ pub fn friction(
 /// sample per telemetry frame (lost frames are refused by the fit), and the amplifier's window
 /// [V] the steps stayed inside.
 pub fn modes(c: &mut Client, plan: &ModesPlan) -> Result<(Vec<Sample>, (f64, f64)), ConsoleError> {
-    holding(c)?;
     let ex = excitation(plan).map_err(|e| ConsoleError::Usage(e.to_string()))?;
+    excite(c, plan.pose, &ex, plan.seconds, plan.piezo_volts)
+}
+
+/// The free decay (`flexarm_sim::identify::decay`) on the holding arm: a move to the plan's
+/// pose, then its taps (two parameter writes each: the bias on, then off), the piezo loop off
+/// throughout, as [`modes`]. Returns the record and the amplifier's window [V].
+pub fn decay(c: &mut Client, plan: &DecayPlan) -> Result<(Vec<Sample>, (f64, f64)), ConsoleError> {
+    let ex = plan
+        .excitation()
+        .map_err(|e| ConsoleError::Usage(e.to_string()))?;
+    excite(c, plan.pose, &ex, plan.seconds(), plan.volts)
+}
+
+/// Runs `seconds` of the excitation `ex` at `pose` on the holding arm, its bias at most
+/// `volts` [V] inside the amplifier's window; the piezo loop off throughout (`k_c` written
+/// back, the bias back to 0 on every path).
+fn excite(
+    c: &mut Client,
+    pose: Vector2<f64>,
+    ex: &Excitation,
+    seconds: f64,
+    volts: f64,
+) -> Result<(Vec<Sample>, (f64, f64)), ConsoleError> {
+    holding(c)?;
     let window = (c.get(Param::VaMin)?, c.get(Param::VaMax)?);
-    let volts = plan.piezo_volts as f32;
+    let volts = volts as f32;
     if -volts <= window.0 || volts >= window.1 {
         return Err(ConsoleError::Usage(format!(
-            "--volts {volts}: the steps must stay inside the amplifier's window [{}, {}] V (a clipped command is refused by the fit)",
+            "--volts {volts}: the excitation must stay inside the amplifier's window [{}, {}] V (a clipped command is refused by the fit)",
             window.0, window.1
         )));
     }
     c.subscribe_fastest(1)?;
     let k_c = c.get(Param::Kc)?;
     c.set(Param::Kc, 0.0)?;
-    let outcome = modes_blocks(c, plan, &ex);
+    let outcome = timeline(c, pose, ex, seconds);
     // The bias is cleared by the drive when it leaves holding; written back here otherwise.
     if c.status()?.mode == Mode::Armed {
         let _ = c.ask(Command::Set(Param::VaBias, 0.0))?;
@@ -169,13 +194,14 @@ pub fn modes(c: &mut Client, plan: &ModesPlan) -> Result<(Vec<Sample>, (f64, f64
     Ok((outcome?, (f64::from(window.0), f64::from(window.1))))
 }
 
-fn modes_blocks(
+/// The excitation's bias writes and moves in its order, from a hold at `pose`.
+fn timeline(
     c: &mut Client,
-    plan: &ModesPlan,
-    ex: &identify::modes::Excitation,
+    pose: Vector2<f64>,
+    ex: &Excitation,
+    seconds: f64,
 ) -> Result<Vec<Sample>, ConsoleError> {
-    let mut frames = to_pose(c, plan.pose)?;
-    // The timeline: the bias steps and the moves in the plan's order.
+    let mut frames = to_pose(c, pose)?;
     let (mut b, mut m) = (0, 0);
     while b < ex.bias.len() || m < ex.moves.len() {
         let next_bias = ex.bias.get(b).map_or(f64::INFINITY, |x| x.0);
@@ -185,8 +211,14 @@ fn modes_blocks(
             b += 1;
             c.set(Param::VaBias, v as f32)?;
             frames.extend(c.take_telemetry());
-            let until = ex.bias.get(b).map_or(plan.seconds, |x| x.0).min(next_move);
-            frames.extend(interrupt::collect(c, until - t)?);
+            let until = ex.bias.get(b).map_or(seconds, |x| x.0).min(next_move);
+            // A short level (a tap) is timed closely; the rest in the usual slices.
+            let budget = if until - t < 0.5 {
+                Duration::from_micros(200)
+            } else {
+                Duration::from_millis(20)
+            };
+            frames.extend(interrupt::collect_within(c, until - t, budget)?);
         } else {
             let (_, traj) = ex.moves[m];
             m += 1;
@@ -197,7 +229,7 @@ fn modes_blocks(
                     f64::from(tr.profile.duration()),
                     f64::from(tr.profile.ramp()),
                 );
-                let what = format!("move {m} of the modes experiment");
+                let what = format!("move {m} of the experiment");
                 run_move(c, &what, target, timing, &mut frames)?;
             }
         }

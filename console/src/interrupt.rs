@@ -46,6 +46,17 @@ pub fn stop_arm(c: &mut Client) -> Result<(), ConsoleError> {
 /// kept busy. Ctrl-C stops the arm and ends it with an error; a stream that stops is a timeout,
 /// never a hang.
 pub fn collect(c: &mut Client, seconds: f64) -> Result<Vec<Telemetry>, ConsoleError> {
+    collect_within(c, seconds, Duration::from_millis(20))
+}
+
+/// [`collect`] reading the line for at most `budget` between two looks at the ticks: a short
+/// wait (a tap's few motor periods) ends on time on a firmware whose clock outruns the host's
+/// (QEMU's, where 20 ms of the host's are over half a second of the firmware's).
+pub fn collect_within(
+    c: &mut Client,
+    seconds: f64,
+    budget: Duration,
+) -> Result<Vec<Telemetry>, ConsoleError> {
     let mut frames: Vec<Telemetry> = Vec::new();
     let periods = (seconds * f64::from(c.hello.motor_hz)).round() as u64;
     let deadline = Instant::now() + Duration::from_secs_f64(seconds * 2.0 + 5.0);
@@ -56,7 +67,7 @@ pub fn collect(c: &mut Client, seconds: f64) -> Result<Vec<Telemetry>, ConsoleEr
                 "the arm was stopped (Ctrl-C)".into(),
             ));
         }
-        c.pump(Duration::from_millis(20))?;
+        c.pump(budget)?;
         frames.extend(c.take_telemetry());
         if let (Some(a), Some(b)) = (frames.first(), frames.last())
             && b.tick >= a.tick + periods

@@ -142,20 +142,24 @@ enum Action {
     /// friction from constant-speed moves out and back from where the arm holds; writes
     /// friction.md, .csv, .svg and a [plant] fragment the simulator reads into OUT. `modes`: the
     /// link's modes with the joints held at (0, π/2) (the patch's bias steps, joint 2's small
-    /// moves); writes modes.md, modes_frf.csv, modes.svg and the record. `inertia`: the rigid
-    /// inertias from random trapezoids of both joints about (0, 0.5); writes inertia.md and the
-    /// record.
+    /// moves); writes modes.md, modes_frf.csv, modes.svg and the record. `decay`: the held
+    /// arm's free decay after taps of the patch at (0, π/2), against the paper's model's
+    /// prediction; writes decay.md, .csv, .svg and the record. `inertia`: the rigid inertias
+    /// from random trapezoids of both joints about (0, 0.5); writes inertia.md and the record.
     Identify {
-        /// The experiment: `friction`, `modes` or `inertia`.
-        #[arg(value_parser = ["friction", "modes", "inertia"])]
+        /// The experiment: `friction`, `modes`, `decay` or `inertia`.
+        #[arg(value_parser = ["friction", "modes", "decay", "inertia"])]
         experiment: String,
+        /// The decay experiment's taps.
+        #[arg(long, default_value_t = 10)]
+        taps: usize,
         /// The inertia experiment's moves.
         #[arg(long, default_value_t = 30)]
         moves: usize,
         /// Length of the modes experiment [s].
         #[arg(long, default_value_t = 60.0)]
         seconds: f64,
-        /// The modes experiment's bias steps [V].
+        /// The modes experiment's bias steps, the decay experiment's taps [V].
         #[arg(long, default_value_t = 100.0)]
         volts: f64,
         /// The modes experiment's moves of joint 2 about the pose [rad].
@@ -444,6 +448,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         Action::Faults { out, force } => faults(&mut c, &out, force)?,
         Action::Identify {
             experiment,
+            taps,
             moves,
             seconds,
             volts,
@@ -484,6 +489,34 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     workflow::save_modes(staging, &trace, film_range, window, None, true)
                         .map_err(ConsoleError::Failed)?
                         .1
+                }
+                "decay" => {
+                    use flexarm_sim::identify::decay;
+                    let plan = decay::DecayPlan {
+                        taps,
+                        volts,
+                        ..Default::default()
+                    };
+                    let (trace, window) = flexarm_console::identify::decay(&mut c, &plan)?;
+                    let film_range =
+                        f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
+                    workflow::save_record(staging, "decay", &trace).map_err(ConsoleError::Io)?;
+                    let paper = (
+                        "paper's model",
+                        flexarm_core::params::ArmParams::default(),
+                        flexarm_core::control::piezo::PiezoPatch::paper(),
+                    );
+                    workflow::save_decay(
+                        staging,
+                        &trace,
+                        (film_range, window),
+                        &plan,
+                        &decay::board_config(f64::from(c.hello.motor_hz)),
+                        &[paper],
+                        true,
+                    )
+                    .map_err(ConsoleError::Failed)?
+                    .1
                 }
                 _ => {
                     let (cruises, fits) =

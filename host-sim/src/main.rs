@@ -84,18 +84,22 @@ enum Command {
     /// joint's Coulomb and viscous friction from constant-speed moves, on the simulator's plant.
     Identify {
         /// The experiment: `friction`, `modes` (the link's, joints held), `inertia` (the rigid
-        /// combinations), or `all` of them and then the identified model and its closed-loop
-        /// check; or `model`: the model from a board's two records (`--modes-record`,
-        /// `--inertia-record`).
-        #[arg(value_parser = ["friction", "modes", "inertia", "all", "model"])]
+        /// combinations), `decay` (the held arm's free decay, against each model's
+        /// prediction), or `all` of them and then the identified model and its closed-loop
+        /// and decay checks; or `model`: the model from a board's two records
+        /// (`--modes-record`, `--inertia-record`).
+        #[arg(value_parser = ["friction", "modes", "inertia", "decay", "all", "model"])]
         experiment: String,
+        /// `decay`: a model file (`model.toml`) whose prediction of the decay is checked too.
+        #[arg(long)]
+        model: Option<PathBuf>,
         /// `model`: the modes experiment's record (`flexarm identify modes`).
         #[arg(long)]
         modes_record: Option<PathBuf>,
         /// `model`: the inertia experiment's record (`flexarm identify inertia`).
         #[arg(long)]
         inertia_record: Option<PathBuf>,
-        /// Fit this recording instead of running the experiment (`modes`, `inertia`): a trace
+        /// Fit this recording instead of running the experiment (`modes`, `inertia`, `decay`): a trace
         /// CSV (a run's, or a board's `flexarm record`), evenly sampled.
         #[arg(long)]
         record: Option<PathBuf>,
@@ -431,6 +435,7 @@ fn main_result(cli: Cli) -> Result<()> {
         }
         Command::Identify {
             experiment,
+            model,
             modes_record,
             inertia_record,
             record,
@@ -456,6 +461,22 @@ fn main_result(cli: Cli) -> Result<()> {
                     "--modes-record and --inertia-record are for `identify model`, not `{experiment}` (it takes --record)"
                 ));
             }
+            if experiment != "decay" && model.is_some() {
+                return Err(format!(
+                    "--model is for `identify decay`, not `{experiment}`"
+                ));
+            }
+            // The model file first: a bad one is named before anything runs.
+            let model = match &model {
+                Some(p) => {
+                    let text = std::fs::read_to_string(p)
+                        .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
+                    let (arm, choice) = flexarm_sim::scenario::read_model(&text)
+                        .map_err(|e| flexarm_beam::config::at_line(p, &text, &e.0))?;
+                    Some((arm, choice.patch))
+                }
+                None => None,
+            };
             use flexarm_sim::identify::workflow;
             let dir = OutDir::open(&out, "identify", force)?;
             let b = workflow::Bench {
@@ -477,12 +498,20 @@ fn main_result(cli: Cli) -> Result<()> {
                 }
                 ("modes", r) => workflow::modes_step(&b, r.as_deref(), seconds)?.1,
                 ("inertia", r) => workflow::inertia_step(&b, r.as_deref())?.1,
+                ("decay", r) => {
+                    let models: Vec<workflow::Model> = model
+                        .map(|(arm, patch)| ("model file", arm, patch))
+                        .into_iter()
+                        .chain([("nominal model", *nominal.0, *nominal.1)])
+                        .collect();
+                    workflow::decay_step(&b, r.as_deref(), &models)?.1
+                }
                 ("friction", Some(_)) => {
                     return Err("--record: the friction experiment's recordings are its moves; run it (or `flexarm identify friction` on a board)".into());
                 }
                 ("friction", None) => workflow::friction_step(&b, &speeds, cruise)?,
                 (_, Some(_)) => {
-                    return Err("--record: `all` runs every experiment itself; fit a recording with `modes` or `inertia`".into());
+                    return Err("--record: `all` runs every experiment itself; fit a recording with `modes`, `inertia` or `decay`".into());
                 }
                 _ => workflow::all(&b, nominal, seconds)?,
             };

@@ -770,3 +770,87 @@ fn identify_model_asks_for_both_records() {
         );
     }
 }
+
+/// `identify decay` runs the experiment and checks a model file's prediction with the
+/// nominal model's; a bad model file is one line naming the file, the line and the key, and
+/// `--model` belongs to `decay` alone; nothing is written on an error.
+#[test]
+fn identify_decay_checks_a_model_file() {
+    let out = fresh_dir("identify-decay");
+    let model = scratch(
+        "decay_model.toml",
+        &flexarm_sim::identify::model::model_fragment(
+            &flexarm_core::params::ArmParams::default(),
+            &flexarm_core::control::piezo::PiezoPatch::paper(),
+            3.162,
+        ),
+    );
+    let (ok, stdout, stderr) = sim(&[
+        "identify",
+        "decay",
+        "--model",
+        model.to_str().unwrap(),
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert_eq!(
+        names_in(&out),
+        [
+            ".flexarm-outputs",
+            "decay.csv",
+            "decay.md",
+            "decay_record.csv"
+        ]
+    );
+    // The plant is the paper's model: the model file (the same arm) predicts it as the
+    // nominal model does, to the fit's last digits.
+    let row = |name: &str| {
+        stdout
+            .lines()
+            .find(|l| l.starts_with(&format!("| {name} |")))
+            .map(|l| {
+                l.split('|')
+                    .skip(2)
+                    .take(4)
+                    .map(str::trim)
+                    .map(String::from)
+                    .collect::<Vec<_>>()
+            })
+    };
+    let (file, nominal) = (row("model file"), row("nominal model"));
+    assert!(file.is_some() && file == nominal, "{stdout}");
+    let bad_model = scratch(
+        "bad_model.toml",
+        &std::fs::read_to_string(&model)
+            .unwrap()
+            .replace("m2 = 3e-1", "m2 = -3e-1"),
+    );
+    let line = std::fs::read_to_string(&bad_model)
+        .unwrap()
+        .lines()
+        .position(|l| l.starts_with("m2 ="))
+        .unwrap()
+        + 1;
+    for (args, needle) in [
+        (
+            vec!["identify", "decay", "--model", bad_model.to_str().unwrap()],
+            format!("bad_model.toml:{line}: "),
+        ),
+        (
+            vec!["identify", "modes", "--model", model.to_str().unwrap()],
+            "--model is for `identify decay`".to_string(),
+        ),
+    ] {
+        let bad = fresh_dir("identify-decay-bad");
+        let (ok, _, stderr) = sim(&[&args[..], &["--out", bad.to_str().unwrap()][..]].concat());
+        assert!(!ok && stderr.lines().count() == 1, "{stderr}");
+        assert!(stderr.contains(&needle), "{needle} not in {stderr}");
+        assert!(
+            !bad.exists() || names_in(&bad).is_empty(),
+            "wrote {:?}",
+            names_in(&bad)
+        );
+    }
+}

@@ -159,7 +159,8 @@ mod modes_and_model {
     /// (the figures in docs/identification.md: −0.03 % and +0.09 %, +5.7 % and +1.1 %), the
     /// piezo→film products within 10 % (+6.2 %, −0.14 %); the inertia combinations within 5 %
     /// (+0.21 %, +0.48 %, +2.7 %); the identified model's closed loop within 10 % of the true
-    /// parameters' on Eq. 37 (−1.3 % and −0.48 %). The model file reads back as the model.
+    /// parameters' on Eq. 37 (−1.3 % and −0.48 %), and its prediction of the held arm's free
+    /// decay close to the decay measured. The model file reads back as the model.
     #[test]
     fn the_whole_loop_recovers_the_truth() {
         let (cfg, _) = super::truth();
@@ -215,6 +216,26 @@ mod modes_and_model {
         ];
         println!("closed loop: Eq. 37 error {:+.3e}, tip {:+.3e}", e[0], e[1]);
         assert!(e[0].abs() < 0.1 && e[1].abs() < 0.1);
+        // The held arm's free decay, as the identified model predicts it (the record's patch
+        // command replayed): frequencies within 1 % (−0.40 %, +0.27 %), damping within 15 %
+        // (+9.6 %, +4.8 %).
+        {
+            use flexarm_sim::identify::decay::{
+                DecayPlan, DecaySettings, decay_experiment, fit_decay, predict, replay,
+            };
+            let (plan, set) = (DecayPlan::default(), DecaySettings::default());
+            let trace = decay_experiment(&cfg, &plan).unwrap();
+            let rec = ModesRecord::from_trace(&trace, 10.0, (-200.0, 200.0)).unwrap();
+            let measured = fit_decay(&rec, &set).unwrap();
+            let (ex, seconds) = replay(&trace).unwrap();
+            let predicted = predict(&cfg, &arm, &patch, (&ex, seconds), &set).unwrap();
+            for m in measured.strongest(2) {
+                let q = predicted.nearest(m.omega).unwrap();
+                let (ef, ez) = (q.omega / m.omega - 1.0, q.zeta / m.zeta - 1.0);
+                println!("decay: identified model {ef:+.3e} in f, {ez:+.3e} in ζ");
+                assert!(ef.abs() < 0.01 && ez.abs() < 0.15);
+            }
+        }
         // The file the simulator reads gives the same controller model.
         let text = format!(
             "name = \"x\"\n[trajectory]\nkind = \"trapezoid\"\n{}",
@@ -319,5 +340,142 @@ mod modes_and_model {
             m.contains("not sampled evenly") && m.contains("4.99"),
             "{m}"
         );
+    }
+}
+
+mod decay {
+    use flexarm_core::control::piezo::PiezoPatch;
+    use flexarm_core::params::ArmParams;
+    use flexarm_sim::identify::IdentifyError;
+    use flexarm_sim::identify::decay::{
+        DecayFit, DecayPlan, DecaySettings, decay_experiment, fit_decay, predict, replay,
+    };
+    use flexarm_sim::identify::modes::{ModesPlan, ModesRecord, modes_experiment};
+
+    fn record(cfg: &flexarm_sim::sim::SimConfig, plan: &DecayPlan) -> ModesRecord {
+        let trace = decay_experiment(cfg, plan).unwrap();
+        ModesRecord::from_trace(&trace, 10.0, (-200.0, 200.0)).unwrap()
+    }
+
+    /// Relative errors of a prediction's frequencies and damping ratios at the measured modes.
+    fn errors(measured: &DecayFit, predicted: &DecayFit) -> Vec<(f64, f64)> {
+        measured
+            .strongest(2)
+            .iter()
+            .map(|m| {
+                let q = predicted.nearest(m.omega).unwrap();
+                (q.omega / m.omega - 1.0, q.zeta / m.zeta - 1.0)
+            })
+            .collect()
+    }
+
+    /// The held arm's decay on the truth plant is what the controller built from the true
+    /// parameters predicts, its patch command replayed (docs/identification.md: +0.05 % and
+    /// +0.06 % in frequency, −0.8 % and +1.8 % in damping), within 1 % and 15 %; the paper's
+    /// nominal model misses the second mode by more than 30 % (−44 %): the check tells the
+    /// models apart. (The identified model's prediction is checked in
+    /// `the_whole_loop_recovers_the_truth`.)
+    #[test]
+    fn the_decay_is_what_the_true_model_predicts_and_not_the_nominal() {
+        let (cfg, _) = super::truth();
+        let plan = DecayPlan::default();
+        let set = DecaySettings::default();
+        let trace = decay_experiment(&cfg, &plan).unwrap();
+        let rec = ModesRecord::from_trace(&trace, 10.0, (-200.0, 200.0)).unwrap();
+        let measured = fit_decay(&rec, &set).unwrap();
+        assert_eq!(measured.taps, plan.taps);
+        let (ex, seconds) = replay(&trace).unwrap();
+        let truth = predict(&cfg, &cfg.arm, &cfg.patch, (&ex, seconds), &set).unwrap();
+        for (j, (ef, ez)) in errors(&measured, &truth).into_iter().enumerate() {
+            println!(
+                "mode {}: true parameters {ef:+.3e} in f, {ez:+.3e} in ζ",
+                j + 1
+            );
+            assert!(ef.abs() < 0.01 && ez.abs() < 0.15, "mode {}", j + 1);
+        }
+        let paper = (ArmParams::default(), PiezoPatch::paper());
+        let nominal = predict(&cfg, &paper.0, &paper.1, (&ex, seconds), &set).unwrap();
+        let e = errors(&measured, &nominal);
+        println!("nominal: {e:?}");
+        assert!(e[1].0.abs() > 0.3, "{e:?}");
+        // The pencil reproduces the averaged decay it was given.
+        let rms = |x: &mut dyn Iterator<Item = f64>| {
+            let v: Vec<f64> = x.collect();
+            (v.iter().map(|a| a * a).sum::<f64>() / v.len() as f64).sqrt()
+        };
+        let residual = rms(&mut measured
+            .decay
+            .iter()
+            .zip(&measured.fitted)
+            .map(|(a, b)| a - b));
+        let size = rms(&mut measured.decay.iter().copied());
+        println!("pencil residual {residual:.2e} V of {size:.2e} V");
+        assert!(residual < 0.2 * size);
+    }
+
+    fn data_error(r: Result<DecayFit, IdentifyError>) -> String {
+        match r {
+            Err(IdentifyError::Data(m)) => m,
+            other => panic!("expected a data error, got {other:?}"),
+        }
+    }
+
+    /// A record without taps, taps too close for the lowest mode, a band that leaves out the
+    /// second mode, a missing channel: each refused with the reason.
+    #[test]
+    fn bad_decay_records_are_refused_with_the_reason() {
+        let (cfg, _) = super::truth();
+        let set = DecaySettings::default();
+        let steps = modes_experiment(
+            &cfg,
+            &ModesPlan {
+                seconds: 10.0,
+                ..ModesPlan::default()
+            },
+        )
+        .unwrap();
+        let steps = ModesRecord::from_trace(&steps, 10.0, (-200.0, 200.0)).unwrap();
+        let m = data_error(fit_decay(&steps, &set));
+        assert!(m.contains("no tap in `v_a`"), "{m}");
+
+        let close = record(
+            &cfg,
+            &DecayPlan {
+                taps: 3,
+                spacing: 1.0,
+                ..DecayPlan::default()
+            },
+        );
+        let m = data_error(fit_decay(&close, &set));
+        assert!(m.contains("too short for modes down to 1.5 Hz"), "{m}");
+
+        let good = record(
+            &cfg,
+            &DecayPlan {
+                taps: 3,
+                ..DecayPlan::default()
+            },
+        );
+        let narrow = DecaySettings {
+            band: (1.5, 15.0),
+            ..set
+        };
+        let m = data_error(fit_decay(&good, &narrow));
+        assert!(m.contains("mode 2 not seen in the decay"), "{m}");
+
+        let mut missing = good.clone();
+        missing.v_f.clear();
+        let m = data_error(fit_decay(&missing, &set));
+        assert!(m.contains("`v_f` is missing"), "{m}");
+
+        let bad_plan = DecayPlan {
+            spacing: 0.2,
+            ..DecayPlan::default()
+        };
+        let m = match decay_experiment(&cfg, &bad_plan) {
+            Err(IdentifyError::Data(m)) => m,
+            other => panic!("{other:?}"),
+        };
+        assert!(m.contains("taps 0.2 s apart"), "{m}");
     }
 }

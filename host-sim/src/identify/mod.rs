@@ -9,6 +9,7 @@
 //! - [`model`]: the controller's model from the fits, its file, the closed-loop check;
 //! - [`report`], [`workflow`]: the reports and the `cargo sim identify` steps.
 
+pub mod decay;
 pub mod frf;
 pub mod friction;
 pub mod inertia;

@@ -194,15 +194,30 @@ impl ModesRecord {
 /// loop is turned off). The trace's angles are the encoders' readings, as a board records
 /// them.
 pub fn modes_experiment(cfg: &SimConfig, plan: &ModesPlan) -> Result<Vec<Sample>, IdentifyError> {
-    let ex = excitation(plan)?;
+    run_excitation(
+        cfg,
+        &excitation(plan)?,
+        plan.seconds,
+        "the modes experiment",
+    )
+}
+
+/// Runs `seconds` of the excitation `ex` on the simulator (`cfg`, its piezo loop off; `what`
+/// names the experiment in errors), with the encoders' readings as a board records them.
+pub fn run_excitation(
+    cfg: &SimConfig,
+    ex: &Excitation,
+    seconds: f64,
+    what: &str,
+) -> Result<Vec<Sample>, IdentifyError> {
     let run = SimConfig {
         piezo: None,
-        duration: plan.seconds,
-        tail_window: plan.seconds.min(1.0),
+        duration: seconds,
+        tail_window: seconds.min(1.0),
         ..*cfg
     };
     let (_, trace) = simulate_excited(&run, &ex.moves, &|t| ex.bias_at(t))
-        .map_err(|e| IdentifyError::Sim(format!("the modes experiment: {e}")))?;
+        .map_err(|e| IdentifyError::Sim(format!("{what}: {e}")))?;
     Ok(super::encoder_readings(&cfg.sensors, trace))
 }
 
@@ -346,23 +361,60 @@ pub const MIN_COHERENCE: f64 = 0.8;
 /// an artefact of the fit (a pole its numerator all but cancels), not a mode.
 const ARTEFACT_SHARE: f64 = 0.02;
 
-/// The record's checks before any fit: every channel present and as long as the others,
-/// finite, long enough for two segments, not clipped.
+/// The record's checks before the modes fit: [`check_channels`], the base excited, long
+/// enough for two segments.
 fn check(rec: &ModesRecord, set: &FitSettings) -> Result<(), IdentifyError> {
+    check_channels(rec)?;
+    let bad = |m: String| Err(IdentifyError::Data(m));
+    let span = |x: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = x.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+            (l.min(v), h.max(v))
+        });
+        hi - lo
+    };
+    if span(&mut rec.theta[0].iter().zip(&rec.theta[1]).map(|(a, b)| a + b)) == 0.0 {
+        return bad("no excitation of the base: `theta1 + theta2` never changes, so the held arm's coupling cannot be taken out".into());
+    }
+    let n = rec.v_f.len();
+    let seconds = n as f64 * rec.dt;
+    let lowest = set.band.0;
+    if seconds < 2.0 * set.segment {
+        return bad(format!(
+            "the record is {seconds:.1} s: too short for modes down to {lowest} Hz, which need two segments of {} s (at least {} s; {} s by default)",
+            set.segment,
+            2.0 * set.segment,
+            ModesPlan::default().seconds
+        ));
+    }
+    if set.segment * lowest < 4.0 {
+        return bad(format!(
+            "segments of {} s resolve {lowest} Hz in fewer than 4 lines: give segments of at least {:.1} s or a band from a higher frequency",
+            set.segment,
+            4.0 / lowest
+        ));
+    }
+    Ok(())
+}
+
+/// A record's checks before any fit (modes or decay): the sampling period, every channel
+/// present, as long as the others and finite, the patch's command changing, the film and the
+/// command not clipped.
+pub fn check_channels(rec: &ModesRecord) -> Result<(), IdentifyError> {
     let bad = |m: String| Err(IdentifyError::Data(m));
     if !(rec.dt.is_finite() && rec.dt > 0.0) {
         return bad(format!("a sampling period of {} s", rec.dt));
     }
-    let n = rec.v_f.len();
-    for (name, ch) in [
+    let channels = [
         ("v_a", &rec.v_a),
         ("v_f", &rec.v_f),
         ("theta1", &rec.theta[0]),
         ("theta2", &rec.theta[1]),
-    ] {
-        if ch.is_empty() {
-            return bad(format!("the channel `{name}` is missing (no samples)"));
-        }
+    ];
+    if let Some((name, _)) = channels.iter().find(|(_, ch)| ch.is_empty()) {
+        return bad(format!("the channel `{name}` is missing (no samples)"));
+    }
+    let n = rec.v_f.len();
+    for (name, ch) in channels {
         if ch.len() != n {
             return bad(format!(
                 "the channel `{name}` holds {} samples, `v_f` {n}",
@@ -383,26 +435,6 @@ fn check(rec: &ModesRecord, set: &FitSettings) -> Result<(), IdentifyError> {
     };
     if span(&mut rec.v_a.iter().copied()) == 0.0 {
         return bad("no excitation: the patch's command `v_a` never changes, so no mode can be seen through it".into());
-    }
-    if span(&mut rec.theta[0].iter().zip(&rec.theta[1]).map(|(a, b)| a + b)) == 0.0 {
-        return bad("no excitation of the base: `theta1 + theta2` never changes, so the held arm's coupling cannot be taken out".into());
-    }
-    let seconds = n as f64 * rec.dt;
-    let lowest = set.band.0;
-    if seconds < 2.0 * set.segment {
-        return bad(format!(
-            "the record is {seconds:.1} s: too short for modes down to {lowest} Hz, which need two segments of {} s (at least {} s; {} s by default)",
-            set.segment,
-            2.0 * set.segment,
-            ModesPlan::default().seconds
-        ));
-    }
-    if set.segment * lowest < 4.0 {
-        return bad(format!(
-            "segments of {} s resolve {lowest} Hz in fewer than 4 lines: give segments of at least {:.1} s or a band from a higher frequency",
-            set.segment,
-            4.0 / lowest
-        ));
     }
     let clipped = |x: &[f64], lo: f64, hi: f64| {
         let tol = 1e-6 * (hi - lo);

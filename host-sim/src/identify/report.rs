@@ -1,11 +1,12 @@
-//! The reports of the modes, inertia and closed-loop steps: Markdown tables, the measured and
-//! fitted responses as CSV and SVG.
+//! The reports of the modes, decay, inertia and closed-loop steps: Markdown tables, the
+//! measured and fitted responses as CSV and SVG.
 
 use std::fmt::Write as _;
 
 use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::params::ArmParams;
 
+use super::decay::DecayFit;
 use super::inertia::{InertiaFit, Rigid};
 use super::model::LoopRun;
 use super::modes::ModesFit;
@@ -193,4 +194,116 @@ pub fn loop_report(runs: &[LoopRun]) -> String {
         );
     }
     s
+}
+
+/// The held arm's decay: the measured modes (the `n` strongest), and each model's prediction
+/// of each (its nearest mode) against them, then the modes a prediction rings at besides
+/// (at least a tenth of its largest amplitude).
+pub fn decay_report(measured: &DecayFit, n: usize, predictions: &[(&str, DecayFit)]) -> String {
+    let tau = std::f64::consts::TAU;
+    let seen = measured.strongest(n);
+    let row = |cells: Vec<String>| format!("| {} |\n", cells.join(" | "));
+    let mut head = vec![String::new()];
+    for j in 1..=seen.len() {
+        head.push(format!("f{j} [Hz]"));
+        head.push(format!("ζ{j}"));
+    }
+    head.push("also rings at".into());
+    let mut s = row(head);
+    s += &format!("{}|\n", "|---".repeat(2 + 2 * seen.len()));
+    let mut cells = vec!["measured".to_string()];
+    for m in &seen {
+        cells.push(format!("{:.4}", m.omega / tau));
+        cells.push(format!("{:.4}", m.zeta));
+    }
+    cells.push("—".into());
+    s += &row(cells);
+    for (name, p) in predictions {
+        let mut cells = vec![name.to_string()];
+        let mut matched = Vec::new();
+        for m in &seen {
+            match p.nearest(m.omega) {
+                Some(q) => {
+                    matched.push(q.omega);
+                    cells.push(format!(
+                        "{:.4} ({})",
+                        q.omega / tau,
+                        pct(q.omega, Some(m.omega))
+                    ));
+                    cells.push(format!("{:.4} ({})", q.zeta, pct(q.zeta, Some(m.zeta))));
+                }
+                None => cells.extend(["—".to_string(), "—".to_string()]),
+            }
+        }
+        let largest = p.modes.iter().map(|m| m.amplitude).fold(0.0, f64::max);
+        let others: Vec<String> = p
+            .modes
+            .iter()
+            .filter(|m| !matched.contains(&m.omega) && m.amplitude >= 0.1 * largest)
+            .map(|m| format!("{:.2} Hz (ζ {:.3})", m.omega / tau, m.zeta))
+            .collect();
+        cells.push(if others.is_empty() {
+            "—".into()
+        } else {
+            others.join(", ")
+        });
+        s += &row(cells);
+    }
+    s
+}
+
+/// The averaged decay and the pencil's reconstruction: `t_s, decay_V, fitted_V`.
+pub fn decay_csv(fit: &DecayFit) -> String {
+    let mut s = String::from("t_s,decay_V,fitted_V\n");
+    for (k, (y, f)) in fit.decay.iter().zip(&fit.fitted).enumerate() {
+        let _ = writeln!(s, "{:.5},{y:.6e},{f:.6e}", k as f64 * fit.dt);
+    }
+    s
+}
+
+/// The averaged decay (dots) and the pencil's reconstruction (line) against time.
+pub fn decay_figure(
+    path: &std::path::Path,
+    fit: &DecayFit,
+) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    let root = SVGBackend::new(path, (900, 420)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let t_end = fit.decay.len() as f64 * fit.dt;
+    let peak = fit
+        .decay
+        .iter()
+        .chain(&fit.fitted)
+        .map(|v| v.abs())
+        .fold(1e-12, f64::max)
+        * 1.1;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!("the film's decay, {} taps averaged", fit.taps),
+            ("sans-serif", 16),
+        )
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..t_end, -peak..peak)?;
+    chart
+        .configure_mesh()
+        .x_desc("time after the tap [s]")
+        .y_desc("V_f [V]")
+        .draw()?;
+    chart.draw_series(
+        fit.decay
+            .iter()
+            .enumerate()
+            .map(|(k, y)| Circle::new((k as f64 * fit.dt, *y), 1, BLUE.filled())),
+    )?;
+    chart.draw_series(LineSeries::new(
+        fit.fitted
+            .iter()
+            .enumerate()
+            .map(|(k, y)| (k as f64 * fit.dt, *y)),
+        RED.stroke_width(1),
+    ))?;
+    root.present()?;
+    Ok(())
 }

@@ -1,6 +1,6 @@
-//! `cargo sim identify friction | modes | inertia | all | model`: each step's experiment (or a
-//! recording), fit, files and report; `all` then generates the model and runs the closed-loop
-//! check, `model` generates it from a board's records.
+//! `cargo sim identify friction | modes | inertia | decay | all | model`: each step's
+//! experiment (or a recording), fit, files and report; `all` then generates the model and
+//! runs the closed-loop and decay checks, `model` generates it from a board's records.
 
 use std::path::Path;
 
@@ -8,6 +8,7 @@ use flexarm_core::Vector2;
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::params::ArmParams;
 
+use super::decay::{self, DecayFit, DecayPlan, DecaySettings};
 use super::inertia::{self, InertiaFit, InertiaPlan, Rigid};
 use super::model::{self, closed_loop, identified_model};
 use super::modes::{self, FitSettings, ModesFit, ModesPlan, ModesRecord};
@@ -199,7 +200,8 @@ fn write_model(
 }
 
 /// Every step on the simulator, from the `nominal` arm and patch a user starts from; then
-/// `model.toml` and the closed-loop check (`verify.md`). Returns the report.
+/// `model.toml`, the closed-loop check (`verify.md`) and the free decay against each model's
+/// prediction (`decay.md`). Returns the report.
 pub fn all(
     b: &Bench,
     nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
@@ -228,7 +230,15 @@ pub fn all(
         report::loop_report(&runs)
     );
     write(b.dir, "verify.md", &v_text)?;
-    Ok(format!("{f_text}\n{m_text}\n{i_text}\n{v_text}"))
+    let (_, d_text) = decay_step(
+        b,
+        None,
+        &[
+            ("identified model", arm, patch),
+            ("nominal model", *nominal.0, *nominal.1),
+        ],
+    )?;
+    Ok(format!("{f_text}\n{m_text}\n{i_text}\n{v_text}\n{d_text}"))
 }
 
 /// The model from a board's records: the modes fit of `modes_record` and the inertia fit of
@@ -244,6 +254,100 @@ pub fn model_from_records(
     let (inertia, i_text) = inertia_step(b, Some(inertia_record))?;
     write_model(b, nominal, &modes, &inertia)?;
     Ok(format!("{m_text}\n{i_text}"))
+}
+
+/// A model the decay check predicts with: its name in the report, arm and patch.
+pub type Model<'a> = (&'a str, ArmParams<f64>, PiezoPatch<f64>);
+
+/// The decay step: the experiment on the simulator (or `record`), its fit and each model's
+/// prediction (the true parameters first when known): `decay.md`, `decay.csv`, `decay.svg`
+/// (and the record when simulated). A record is predicted on a board of its rate
+/// ([`decay::board_config`]).
+pub fn decay_step(
+    b: &Bench,
+    record: Option<&Path>,
+    models: &[Model],
+) -> Result<(DecayFit, String), String> {
+    let plan = DecayPlan::default();
+    let trace = record_or_run(b, record, "decay", || decay::decay_experiment(b.cfg, &plan))?;
+    let board = match record {
+        Some(_) => {
+            let dt = super::even_period(&trace).map_err(|e| e.to_string())?;
+            decay::board_config(1.0 / dt)
+        }
+        None => *b.cfg,
+    };
+    let truth = b
+        .known
+        .then_some(("true parameters", b.cfg.arm, b.cfg.patch));
+    let all: Vec<Model> = truth.into_iter().chain(models.iter().copied()).collect();
+    let window = (
+        f64::from(b.cfg.limits.v_a_min),
+        f64::from(b.cfg.limits.v_a_max),
+    );
+    save_decay(
+        b.dir,
+        &trace,
+        (b.cfg.sensors.adc_range, window),
+        &plan,
+        &board,
+        &all,
+        b.plots,
+    )
+    .map_err(|e| match record {
+        Some(p) => format!("{}: {e}", p.display()),
+        None => e,
+    })
+}
+
+/// Fits the decay record `trace` (its film ADC's range [V] and amplifier window [V]) of the
+/// experiment `plan`, predicts each of `models` on `board` (the same experiment on the
+/// controller built from the model, the model its plant) and writes `decay.md`, `decay.csv`
+/// and, with `plots`, `decay.svg` into `dir`. Returns the fit and the report.
+pub fn save_decay(
+    dir: &Path,
+    trace: &[Sample],
+    (v_f_range, v_a_window): (f64, (f64, f64)),
+    plan: &DecayPlan,
+    board: &SimConfig,
+    models: &[Model],
+    plots: bool,
+) -> Result<(DecayFit, String), String> {
+    let rec = ModesRecord::from_trace(trace, v_f_range, v_a_window).map_err(|e| e.to_string())?;
+    let d = DecaySettings::default();
+    let set = DecaySettings {
+        band: (d.band.0, d.band.1.min(0.4 / rec.dt)),
+        ..d
+    };
+    let measured = decay::fit_decay(&rec, &set).map_err(|e| e.to_string())?;
+    let (ex, seconds) = decay::replay(trace).map_err(|e| e.to_string())?;
+    let mut predictions = Vec::new();
+    for (name, arm, patch) in models {
+        let p = decay::predict(board, arm, patch, (&ex, seconds), &set)
+            .map_err(|e| format!("predicting with the {name}: {e}"))?;
+        predictions.push((*name, p));
+    }
+    let text = format!(
+        "# The held arm's free decay
+
+Joints held at (0, π/2) rad, the piezo loop off; {} taps of the patch (±{} V for {} s, {} s apart); the film's decays averaged and fitted by the matrix pencil in {}–{:.0} Hz (`docs/identification.md`). These are the held arm's modes, the link's coupled with the servo: each model's row is the same experiment on the controller built from it, the model its plant, and its error against the measured decay.
+
+{}",
+        measured.taps,
+        plan.volts,
+        plan.width,
+        plan.spacing,
+        set.band.0,
+        set.band.1,
+        report::decay_report(&measured, set.modes, &predictions)
+    );
+    write(dir, "decay.md", &text)?;
+    write(dir, "decay.csv", &report::decay_csv(&measured))?;
+    if plots {
+        report::decay_figure(&dir.join("decay.svg"), &measured)
+            .map_err(|e| format!("cannot draw the figure: {e}"))?;
+    }
+    Ok((measured, text))
 }
 
 /// Writes a record `trace` as `<name>_record.csv` (the trace CSV `--record` reads back).
