@@ -446,8 +446,8 @@ fn flood_block(k: u16) -> Result<Vec<u8>, String> {
 /// its target without a motion fault (its error within the following-error limit), no loop
 /// misses a deadline, and the firmware answers throughout. (Its tracking error is not held to
 /// the host simulation's, as the full session's moves are: with `sleep=on` QEMU's timers follow
-/// the host's clock and the piezo timer, which steps the QEMU board's plant, slips against the
-/// motor timer by a varying amount, 2.5e-3 to 9e-3 rad of error from run to run.)
+/// the host's clock and drop interrupts under its load, by a varying amount, and the QEMU
+/// board's plant catches up on the lost periods in bursts: 2.5e-3 to 3.5e-3 rad from run to run.)
 ///
 /// The rate: QEMU's USART model takes one byte per turn of QEMU's main loop, a pace set by the
 /// host's speed (38 kB per second of the host's time on the machine of docs/link.md, 29 kB/s on
