@@ -12,9 +12,9 @@
 //! ## What the decay shows
 //! The held arm's modes, not the clamped link's: the servo holds the hubs, the link's vibration
 //! moves them, and the decay's poles are those of the link coupled with the servo and the
-//! controller's model (on the paper's arm 4.56 Hz against the clamped link's 4.716, and its
-//! damping ratio 0.038 against 0.07; `docs/identification.md`). So the decay is a check of a
-//! model, not a source of its parameters: the same experiment simulated on the controller
+//! controller's model (the first link mode lies near a mode of the servo holding the joints,
+//! and the decay shares itself between them as the tap excites them; `docs/identification.md`).
+//! So the decay is a check of a model, not a source of its parameters: the same experiment simulated on the controller
 //! built from a model predicts the decay ([`predict`]), and the identified model must predict
 //! what the arm does.
 //!
