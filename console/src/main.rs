@@ -511,7 +511,10 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                         &trace,
                         (film_range, window),
                         &plan,
-                        &decay::board_config(f64::from(c.hello.motor_hz)),
+                        &flexarm_sim::sim::SimConfig::board(
+                            f64::from(c.hello.motor_hz),
+                            f64::from(c.hello.piezo_hz),
+                        ),
                         &[paper],
                         true,
                     )

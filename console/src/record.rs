@@ -31,9 +31,7 @@ use flexarm_core::trajectory::JointTrajectory;
 use flexarm_link::Command;
 use flexarm_link::msg::{Channels, Move, Param, Telemetry};
 use flexarm_sim::outdir::OutDir;
-use flexarm_sim::sim::{
-    Rates, Sample, Sensors, SimConfig, StateSource, Summary, simulate_segments, summarize,
-};
+use flexarm_sim::sim::{Sample, SimConfig, Summary, simulate_segments, summarize};
 use flexarm_sim::study::{Case, Outcome};
 use serde::{Deserialize, Serialize};
 
@@ -497,32 +495,20 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
             plan.duration
         )));
     }
+    let board = SimConfig::board(f64::from(info.motor_hz), f64::from(info.piezo_hz));
+    let mut gains = board.gains;
+    if let Some([k1, k2]) = info.kp {
+        (gains.kp.x, gains.kp.y) = (k1, k2);
+    }
     let cfg = SimConfig {
         piezo: Some(flexarm_core::control::piezo::PiezoGains {
             k_c: info.k_c,
             ..Default::default()
         }),
-        state: StateSource::Observer,
-        sensors: Sensors {
-            encoder_counts: Some(16384.0),
-            adc_bits: Some(12),
-            ..Sensors::default()
-        },
-        rates: Rates {
-            plant_dt: 1.0 / f64::from(info.piezo_hz),
-            motor_hz: f64::from(info.motor_hz),
-            piezo_hz: f64::from(info.piezo_hz),
-        },
-        gains: {
-            let mut g = flexarm_core::params::Gains::default_for(info.motor_hz);
-            if let Some([k1, k2]) = info.kp {
-                (g.kp.x, g.kp.y) = (k1, k2);
-            }
-            g
-        },
+        gains,
         duration: duration + 1.0 / f64::from(info.motor_hz),
         tail_window: 1.0,
-        ..SimConfig::default()
+        ..board
     };
     let (_, simulated) = simulate_segments(&cfg, &segments, true)
         .map_err(|e| ConsoleError::Usage(format!("the simulation: {e}")))?;

@@ -61,6 +61,18 @@ pub fn patch() -> PiezoPatch<f32> {
     }
 }
 
+/// The patch on the QEMU board's simulated arm, which plays the physical arm: the paper's,
+/// whatever model the controller runs, so its slope differences are the paper's link's at the
+/// patch ([`generated::QEMU_SLOPE_DIFF`]).
+#[cfg(feature = "qemu")]
+pub fn qemu_patch() -> PiezoPatch<f32> {
+    let [d1, d2] = generated::QEMU_SLOPE_DIFF;
+    PiezoPatch {
+        slope_diff: Vector2::new(d1, d2),
+        ..patch()
+    }
+}
+
 /// The controller's limits: the core's torque limits, and the piezo window the board's output
 /// stage can deliver (±175 V on the hardware board, whose DAC buffer does not reach its rails;
 /// the QEMU board's ideal output keeps the core's ±200 V). A patch rated for less reverse

@@ -222,13 +222,9 @@ mod app {
             // The simulated arm plays the physical arm: the paper's, with the firmware's patch
             // on it, whatever model the controller runs (the paper's by default, or one
             // identified on this arm, docs/identification.md).
-            let [d1, d2] = crate::generated::QEMU_SLOPE_DIFF;
             let sim = SimArm::new(
                 flexarm_core::model::Model::new(flexarm_core::params::ArmParams::default()),
-                flexarm_core::control::piezo::PiezoPatch {
-                    slope_diff: flexarm_core::Vector2::new(d1, d2),
-                    ..ctrl.patch
-                },
+                config::qemu_patch(),
                 flexarm_core::Vector4::zeros(),
                 SensorModel::default(),
             );

@@ -480,6 +480,29 @@ pub const MIN_MOTOR_SAMPLES: f64 = 10.0;
 pub const MIN_RAMP_SAMPLES: f64 = 2.0;
 
 impl SimConfig {
+    /// The firmware as a board runs it, on the controller's own model: motor loop `motor_hz`,
+    /// piezo loop `piezo_hz` (the plant stepped at it) [Hz], the observer, 16384-count
+    /// encoders and a 12-bit film ADC (the QEMU board's sensors), the paper's gains with the
+    /// joints' `K_p` for that motor rate (`Gains::default_for`), the piezo loop off. The host's
+    /// runs of a board's moves and experiments start from it.
+    pub fn board(motor_hz: f64, piezo_hz: f64) -> Self {
+        Self {
+            state: StateSource::Observer,
+            sensors: Sensors {
+                encoder_counts: Some(16384.0),
+                adc_bits: Some(12),
+                ..Sensors::default()
+            },
+            rates: Rates {
+                plant_dt: 1.0 / piezo_hz,
+                motor_hz,
+                piezo_hz,
+            },
+            gains: Gains::default_for(motor_hz.round() as u32),
+            ..Self::default()
+        }
+    }
+
     /// This run on the truth plant `spec`: the arm given so far becomes the truth's rigid
     /// parts, and the controller gets the two-mode truncation of the truth's link
     /// ([`truth_plant::controller_model`]).

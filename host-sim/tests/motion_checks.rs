@@ -7,7 +7,7 @@ use flexarm_core::control::piezo::PiezoGains;
 use flexarm_core::motion::MotionLimits;
 use flexarm_core::trajectory::{Circle, JointTrajectory, Trapezoid};
 use flexarm_sim::montecarlo;
-use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource, simulate};
+use flexarm_sim::sim::{SimConfig, simulate};
 use flexarm_sim::study::{Options, paper_cases, run};
 use flexarm_sim::truth_plant::TruthSpec;
 
@@ -100,20 +100,8 @@ fn the_qemu_boards_moves_trip_no_motion_check() {
                 k_c: 3.162,
                 ..Default::default()
             }),
-            state: StateSource::Observer,
-            sensors: Sensors {
-                encoder_counts: Some(16384.0),
-                adc_bits: Some(12),
-                ..Sensors::default()
-            },
-            rates: Rates {
-                plant_dt: 1e-3,
-                motor_hz: 100.0,
-                piezo_hz: 1000.0,
-            },
-            gains: flexarm_core::params::Gains::default_for(100),
             duration: 6.0,
-            ..SimConfig::default()
+            ..SimConfig::board(100.0, 1000.0)
         };
         let (s, _) = simulate(&cfg, traj, false).unwrap();
         println!(

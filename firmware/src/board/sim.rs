@@ -1,6 +1,7 @@
 //! The QEMU board: the arm simulated inside the firmware (the core's model in `f32`, RK4, one
-//! step per piezo period of the firmware's clock), with quantized encoders and film ADC. Its enable and fault lines are
-//! in-memory `embedded-hal` pins, so the same pin logic runs as on hardware.
+//! step per piezo period of the firmware's clock), with quantized encoders and film ADC. Its
+//! enable and fault lines are in-memory `embedded-hal` pins, so the same pin logic runs as on
+//! hardware.
 
 use core::convert::Infallible;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};

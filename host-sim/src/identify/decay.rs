@@ -452,26 +452,3 @@ pub fn predict(
     let rec = ModesRecord::from_trace(&trace, cfg.sensors.adc_range, window)?;
     fit_decay(&rec, set)
 }
-
-/// The simulator as a board of `motor_hz` runs (the piezo loop ten times faster, the plant
-/// stepped at it; the observer; 16384-count encoders and a 12-bit film ADC; the paper's gains
-/// with `K_p` for that rate, `Gains::default_for`): where a board's record is predicted.
-pub fn board_config(motor_hz: f64) -> SimConfig {
-    let motor_hz = motor_hz.round().max(1.0);
-    let piezo_hz = 10.0 * motor_hz;
-    SimConfig {
-        state: crate::sim::StateSource::Observer,
-        sensors: crate::sim::Sensors {
-            encoder_counts: Some(16384.0),
-            adc_bits: Some(12),
-            ..crate::sim::Sensors::default()
-        },
-        rates: crate::sim::Rates {
-            plant_dt: 1.0 / piezo_hz,
-            motor_hz,
-            piezo_hz,
-        },
-        gains: flexarm_core::params::Gains::default_for(motor_hz as u32),
-        ..SimConfig::default()
-    }
-}

@@ -366,13 +366,7 @@ const ARTEFACT_SHARE: f64 = 0.02;
 fn check(rec: &ModesRecord, set: &FitSettings) -> Result<(), IdentifyError> {
     check_channels(rec)?;
     let bad = |m: String| Err(IdentifyError::Data(m));
-    let span = |x: &mut dyn Iterator<Item = f64>| {
-        let (lo, hi) = x.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-            (l.min(v), h.max(v))
-        });
-        hi - lo
-    };
-    if span(&mut rec.theta[0].iter().zip(&rec.theta[1]).map(|(a, b)| a + b)) == 0.0 {
+    if span(rec.theta[0].iter().zip(&rec.theta[1]).map(|(a, b)| a + b)) == 0.0 {
         return bad("no excitation of the base: `theta1 + theta2` never changes, so the held arm's coupling cannot be taken out".into());
     }
     let n = rec.v_f.len();
@@ -394,6 +388,14 @@ fn check(rec: &ModesRecord, set: &FitSettings) -> Result<(), IdentifyError> {
         ));
     }
     Ok(())
+}
+
+/// The range a channel spans, largest minus smallest.
+fn span(x: impl Iterator<Item = f64>) -> f64 {
+    let (lo, hi) = x.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+        (l.min(v), h.max(v))
+    });
+    hi - lo
 }
 
 /// A record's checks before any fit (modes or decay): the sampling period, every channel
@@ -427,13 +429,7 @@ pub fn check_channels(rec: &ModesRecord) -> Result<(), IdentifyError> {
             ));
         }
     }
-    let span = |x: &mut dyn Iterator<Item = f64>| {
-        let (lo, hi) = x.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-            (l.min(v), h.max(v))
-        });
-        hi - lo
-    };
-    if span(&mut rec.v_a.iter().copied()) == 0.0 {
+    if span(rec.v_a.iter().copied()) == 0.0 {
         return bad("no excitation: the patch's command `v_a` never changes, so no mode can be seen through it".into());
     }
     let clipped = |x: &[f64], lo: f64, hi: f64| {

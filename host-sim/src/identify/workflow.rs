@@ -33,6 +33,14 @@ fn write(dir: &Path, name: &str, text: &str) -> Result<(), String> {
     std::fs::write(dir.join(name), text).map_err(|e| format!("cannot write {name}: {e}"))
 }
 
+/// An error about the recording `record`, when there is one, names its file.
+fn naming(record: Option<&Path>) -> impl Fn(String) -> String + '_ {
+    move |e| match record {
+        Some(p) => format!("{}: {e}", p.display()),
+        None => e,
+    }
+}
+
 /// The record: read from `record`, or the experiment `run` on the simulator (saved as
 /// `<name>_record.csv`).
 fn record_or_run(
@@ -75,10 +83,7 @@ pub fn modes_step(
         truth,
         b.plots,
     )
-    .map_err(|e| match record {
-        Some(p) => format!("{}: {e}", p.display()),
-        None => e,
-    })
+    .map_err(naming(record))
 }
 
 /// Fits the modes record `trace` (film ADC range `±v_f_range` [V], amplifier window [V]) and
@@ -122,10 +127,7 @@ pub fn inertia_step(b: &Bench, record: Option<&Path>) -> Result<(InertiaFit, Str
         inertia::inertia_experiment(b.cfg, &InertiaPlan::default())
     })?;
     let truth = b.known.then(|| Rigid::of(&b.cfg.arm));
-    save_inertia(b.dir, &trace, truth).map_err(|e| match record {
-        Some(p) => format!("{}: {e}", p.display()),
-        None => e,
-    })
+    save_inertia(b.dir, &trace, truth).map_err(naming(record))
 }
 
 /// Fits the inertia record `trace` and writes `inertia.md` into `dir` (against `truth` when
@@ -262,7 +264,7 @@ pub type Model<'a> = (&'a str, ArmParams<f64>, PiezoPatch<f64>);
 /// The decay step: the experiment on the simulator (or `record`), its fit and each model's
 /// prediction (the true parameters first when known): `decay.md`, `decay.csv`, `decay.svg`
 /// (and the record when simulated). A record is predicted on a board of its rate
-/// ([`decay::board_config`]).
+/// ([`SimConfig::board`]).
 pub fn decay_step(
     b: &Bench,
     record: Option<&Path>,
@@ -272,8 +274,9 @@ pub fn decay_step(
     let trace = record_or_run(b, record, "decay", || decay::decay_experiment(b.cfg, &plan))?;
     let board = match record {
         Some(_) => {
-            let dt = super::even_period(&trace).map_err(|e| e.to_string())?;
-            decay::board_config(1.0 / dt)
+            let dt = super::even_period(&trace).map_err(|e| naming(record)(e.to_string()))?;
+            // A board's piezo loop runs ten times its motor loop.
+            SimConfig::board(1.0 / dt, 10.0 / dt)
         }
         None => *b.cfg,
     };
@@ -294,10 +297,7 @@ pub fn decay_step(
         &all,
         b.plots,
     )
-    .map_err(|e| match record {
-        Some(p) => format!("{}: {e}", p.display()),
-        None => e,
-    })
+    .map_err(naming(record))
 }
 
 /// Fits the decay record `trace` (its film ADC's range [V] and amplifier window [V]) of the

@@ -26,7 +26,7 @@ use flexarm_link::msg::{
     Board, Channels, Command, Mode, Move, Param, Refusal, Reply, Telemetry, Waypoint,
 };
 use flexarm_link::{Decoder, DeviceMsg, MAX_FRAME, Request, VERSION, encode};
-use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource, simulate};
+use flexarm_sim::sim::{SimConfig, simulate};
 
 /// Telemetry channels of the session: every one: errors (2), θ̂ (2), δ̂ (2), τ (2), V_a (1),
 /// V_f (1), loads (2).
@@ -153,21 +153,9 @@ fn simulated_error(traj: &JointTrajectory<f32>, k_c: f32) -> Result<f64, String>
             k_c,
             ..Default::default()
         }),
-        state: StateSource::Observer,
-        sensors: Sensors {
-            encoder_counts: Some(16384.0),
-            adc_bits: Some(12),
-            ..Sensors::default()
-        },
-        rates: Rates {
-            plant_dt: 1e-3,
-            motor_hz: 100.0,
-            piezo_hz: 1000.0,
-        },
-        gains: flexarm_core::params::Gains::default_for(100),
         duration: f64::from(move_time) + 1.0,
         tail_window: 1.0,
-        ..SimConfig::default()
+        ..SimConfig::board(100.0, 1000.0)
     };
     let (s, _) = simulate(&cfg, traj, false).map_err(|e| e.to_string())?;
     if let Some((fault, t)) = s.motion_trip {
