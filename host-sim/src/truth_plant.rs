@@ -21,7 +21,8 @@
 //! `m2 a2²/3`); the truth's link has mass `m`, first moment `S1` and second moment `S2`, so
 //! `m2 = 2 S1/a2`, `m_h2 ← m_h2 + m − m2` (the same `(m_h2 + m2) a1²`) and
 //! `I_h2 + I_2x ← I_h2 + I_2x + S2 − m2 a2²/3` (only the sum enters). The rotors are not in the
-//! controller's model.
+//! controller's model, nor a tip payload's rotary inertia in the deflection's second moment
+//! (the core's `δᵀδ` against the truth's `δᵀ(I − J_t φ'(L)φ'(L)ᵀ)δ`, second order in `δ`).
 //!
 //! ## Integration
 //! RK4 at the simulator's plant step (default 0.1 ms) is adequate to N = 10 on the default
