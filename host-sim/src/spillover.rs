@@ -21,6 +21,8 @@
 
 use nalgebra::DMatrix;
 
+use crate::eigen::EigenError;
+
 /// The piezo loop as the firmware runs it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PiezoLoop {
@@ -160,18 +162,18 @@ pub fn closed_loop(link: &ModalLink, law: &PiezoLoop) -> DMatrix<f64> {
     z
 }
 
-/// Spectral radius of the closed loop: below 1 is stable.
-pub fn spectral_radius(link: &ModalLink, law: &PiezoLoop) -> f64 {
-    closed_loop(link, law)
-        .complex_eigenvalues()
-        .iter()
-        .map(|l| l.norm())
-        .fold(0.0, f64::max)
+/// Spectral radius of the closed loop: below 1 is stable ([`crate::eigen`]).
+pub fn spectral_radius(link: &ModalLink, law: &PiezoLoop) -> Result<f64, EigenError> {
+    crate::eigen::spectral_radius(&closed_loop(link, law))
 }
 
 /// The factor on `k_c` at which the loop becomes unstable (bisection on the spectral radius,
 /// to 0.1 %), searched up to `max_factor`; `None` if it is stable up to there.
-pub fn gain_margin(link: &ModalLink, law: &PiezoLoop, max_factor: f64) -> Option<f64> {
+pub fn gain_margin(
+    link: &ModalLink,
+    law: &PiezoLoop,
+    max_factor: f64,
+) -> Result<Option<f64>, EigenError> {
     let stable = |g: f64| {
         spectral_radius(
             link,
@@ -179,19 +181,20 @@ pub fn gain_margin(link: &ModalLink, law: &PiezoLoop, max_factor: f64) -> Option
                 k_c: law.k_c * g,
                 ..*law
             },
-        ) < 1.0
+        )
+        .map(|r| r < 1.0)
     };
-    if stable(max_factor) {
-        return None;
+    if stable(max_factor)? {
+        return Ok(None);
     }
     let (mut lo, mut hi) = (0.0, max_factor);
     while hi - lo > 1e-3 * hi {
         let mid = 0.5 * (lo + hi);
-        if stable(mid) {
+        if stable(mid)? {
             lo = mid;
         } else {
             hi = mid;
         }
     }
-    Some(lo)
+    Ok(Some(lo))
 }

@@ -25,6 +25,7 @@ use flexarm_core::params::ArmParams;
 use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
 use plotters::prelude::*;
 
+use crate::eigen::{EigenError, eigenvalues};
 use crate::sim::{Sensors, SimConfig, SimError, StateSource, Summary, simulate};
 use crate::spillover::{ModalLink, PiezoLoop, closed_loop, gain_margin};
 use crate::truth_plant::{MAX_MODES, TruthSpec};
@@ -85,14 +86,18 @@ pub fn realistic(spec: &TruthSpec, law: PiezoLoop) -> PiezoLoop {
 
 /// Damping ratios of the closed loop's modes nearest the link's first `count` modes: the
 /// discrete eigenvalues mapped to `s = ln λ / T`, `ζ = −Re s / |s|`.
-pub fn modal_damping(link: &ModalLink, law: &PiezoLoop, count: usize) -> Vec<f64> {
-    let s: Vec<_> = closed_loop(link, law)
-        .complex_eigenvalues()
+pub fn modal_damping(
+    link: &ModalLink,
+    law: &PiezoLoop,
+    count: usize,
+) -> Result<Vec<f64>, EigenError> {
+    let s: Vec<_> = eigenvalues(&closed_loop(link, law))?
         .iter()
         .filter(|l| l.im > 0.0)
         .map(|l| l.ln() / law.period)
         .collect();
-    link.omega
+    Ok(link
+        .omega
         .iter()
         .take(count)
         .map(|w| {
@@ -100,7 +105,7 @@ pub fn modal_damping(link: &ModalLink, law: &PiezoLoop, count: usize) -> Vec<f64
                 .min_by(|a, b| (a.norm() - w).abs().total_cmp(&(b.norm() - w).abs()))
                 .map_or(f64::NAN, |s| -s.re / s.norm())
         })
-        .collect()
+        .collect())
 }
 
 /// One point of the gain scan.
@@ -127,7 +132,12 @@ pub fn gains() -> Vec<f64> {
 pub const CORNERS: [f64; 4] = [30.0, 100.0, 300.0, 1000.0];
 
 /// The margin and the damping of modes 1–2 over `gains` × `corners` for the loop `base`.
-pub fn scan(link: &ModalLink, base: &PiezoLoop, gains: &[f64], corners: &[f64]) -> Vec<ScanPoint> {
+pub fn scan(
+    link: &ModalLink,
+    base: &PiezoLoop,
+    gains: &[f64],
+    corners: &[f64],
+) -> Result<Vec<ScanPoint>, EigenError> {
     let mut out = Vec::new();
     for &cutoff_hz in corners {
         for &k_c in gains {
@@ -136,16 +146,16 @@ pub fn scan(link: &ModalLink, base: &PiezoLoop, gains: &[f64], corners: &[f64]) 
                 cutoff_hz,
                 ..*base
             };
-            let z = modal_damping(link, &law, 2);
+            let z = modal_damping(link, &law, 2)?;
             out.push(ScanPoint {
                 cutoff_hz,
                 k_c,
-                margin: gain_margin(link, &law, 1e6).unwrap_or(f64::INFINITY),
+                margin: gain_margin(link, &law, 1e6)?.unwrap_or(f64::INFINITY),
                 zeta: [z[0], z[1]],
             });
         }
     }
-    out
+    Ok(out)
 }
 
 /// The design rule: of the points with a margin of at least [`MARGIN`], the one whose weaker
@@ -204,15 +214,19 @@ pub fn run(spec: &TruthSpec, sim_duration: f64) -> Result<Report, SimError> {
         .into_iter()
         .map(|(label, law)| {
             let row = (1..=spec.modes)
-                .map(|n| Ok(gain_margin(&full.truncated(n), &law, 1e6).unwrap_or(f64::INFINITY)))
+                .map(|n| {
+                    gain_margin(&full.truncated(n), &law, 1e6)
+                        .map(|m| m.unwrap_or(f64::INFINITY))
+                        .map_err(eigen_error)
+                })
                 .collect::<Result<Vec<_>, SimError>>()?;
             Ok((label, row))
         })
         .collect::<Result<Vec<_>, SimError>>()?;
     let board = realistic(spec, SHIPPED);
-    let points = scan(&full, &board, &gains(), &CORNERS);
+    let points = scan(&full, &board, &gains(), &CORNERS).map_err(eigen_error)?;
     let recommended = recommend(&points);
-    let z = modal_damping(&full, &board, 2);
+    let z = modal_damping(&full, &board, 2).map_err(eigen_error)?;
 
     let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
     let mut runs = Vec::new();
@@ -272,6 +286,10 @@ pub fn run(spec: &TruthSpec, sim_duration: f64) -> Result<Report, SimError> {
         shipped_zeta: [z[0], z[1]],
         runs,
     })
+}
+
+fn eigen_error(e: EigenError) -> SimError {
+    SimError::Truth(format!("the spillover loop's eigenvalues: {e}"))
 }
 
 fn factor(x: f64) -> String {

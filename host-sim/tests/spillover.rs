@@ -50,7 +50,7 @@ fn without_gain_the_loop_has_the_beams_own_decay() {
         .zip(&l.zeta)
         .map(|(w, z)| (-z * w * 1e-4).exp())
         .fold(0.0, f64::max);
-    let rho = spectral_radius(&l, &off);
+    let rho = spectral_radius(&l, &off).unwrap();
     assert!(
         (rho - slowest.max(filter)).abs() < 1e-9,
         "{rho} vs {slowest}, {filter}"
@@ -60,7 +60,8 @@ fn without_gain_the_loop_has_the_beams_own_decay() {
 #[test]
 fn the_margin_scales_with_the_sample_rate_and_shrinks_with_the_modes() {
     let (two, six) = (link(2), link(6));
-    let m = |l: &ModalLink, law: &PiezoLoop| gain_margin(l, law, 1e6).unwrap_or(f64::INFINITY);
+    let m =
+        |l: &ModalLink, law: &PiezoLoop| gain_margin(l, law, 1e6).unwrap().unwrap_or(f64::INFINITY);
     let fast = PiezoLoop {
         period: 5e-5,
         ..FIRMWARE
@@ -102,7 +103,7 @@ fn margins_of_the_shipped_piezo_loop() {
             .iter()
             .map(|&n| {
                 let f = link(n).omega.last().copied().unwrap_or(0.0) / std::f64::consts::TAU;
-                match gain_margin(&link(n), &law, 1e6) {
+                match gain_margin(&link(n), &law, 1e6).unwrap() {
                     Some(g) => format!("N = {n} (to {f:.0} Hz): {g:.1}"),
                     None => format!("N = {n} (to {f:.0} Hz): > 1e6"),
                 }
@@ -112,7 +113,11 @@ fn margins_of_the_shipped_piezo_loop() {
     }
     // Where the ten-mode loop goes unstable at the shipped gain.
     let m = flexarm_sim::spillover::closed_loop(&link(10), &FIRMWARE);
-    for l in m.complex_eigenvalues().iter().filter(|l| l.norm() > 1.0) {
+    for l in flexarm_sim::eigen::eigenvalues(&m)
+        .unwrap()
+        .iter()
+        .filter(|l| l.norm() > 1.0)
+    {
         println!(
             "  ten modes, 10 kHz: unstable pair |λ| = {:.4} at {:.0} Hz",
             l.norm(),
@@ -162,7 +167,9 @@ fn margins_against_the_filter_corner() {
             cutoff_hz: fc,
             ..FIRMWARE
         };
-        let g = gain_margin(&link(10), &law, 1e6).unwrap_or(f64::INFINITY);
+        let g = gain_margin(&link(10), &law, 1e6)
+            .unwrap()
+            .unwrap_or(f64::INFINITY);
         println!("  corner {fc} Hz: {g:.2}");
         margins.push(g);
     }
@@ -181,7 +188,9 @@ fn margins_with_a_real_amplifier() {
             amplifier_hz: f,
             ..FIRMWARE
         };
-        let g = gain_margin(&link(10), &law, 1e6).unwrap_or(f64::INFINITY);
+        let g = gain_margin(&link(10), &law, 1e6)
+            .unwrap()
+            .unwrap_or(f64::INFINITY);
         println!(
             "  amplifier {}: {g:.2}",
             f.map_or("ideal".into(), |f| format!("{f} Hz"))
