@@ -183,6 +183,10 @@ struct PlantArgs {
     /// Modes of the truth plant's link 2, 1 to 10 [default: 6].
     #[arg(long)]
     modes: Option<usize>,
+    /// Bond factor of the truth plant's film feedthrough, 0 to 1 [default: 0]
+    /// (`plant.film_bond`).
+    #[arg(long)]
+    film_bond: Option<f64>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -195,17 +199,26 @@ impl PlantArgs {
     /// The truth plant asked for, checked.
     fn truth(&self) -> Result<Option<TruthSpec>> {
         if self.plant == PlantKind::Model {
-            return match self.modes {
-                Some(_) => Err("--modes needs --plant truth".into()),
-                None => Ok(None),
+            return match (self.modes, self.film_bond) {
+                (Some(_), _) => Err("--modes needs --plant truth".into()),
+                (_, Some(_)) => Err("--film-bond needs --plant truth".into()),
+                (None, None) => Ok(None),
             };
         }
         let d = TruthSpec::default();
         let t = TruthSpec {
             modes: self.modes.unwrap_or(d.modes),
+            film_bond: self.film_bond.unwrap_or(d.film_bond),
             ..d
         };
-        t.validate().map_err(|(_, msg)| format!("--modes: {msg}"))?;
+        t.validate().map_err(|(key, msg)| {
+            let option = if key == "plant.film_bond" {
+                "--film-bond"
+            } else {
+                "--modes"
+            };
+            format!("{option}: {msg}")
+        })?;
         Ok(Some(t))
     }
 }

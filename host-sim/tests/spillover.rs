@@ -23,6 +23,7 @@ fn link(n: usize) -> ModalLink {
         slope_diff: pm.slope_diff.clone(),
         k_a: pm.k_a,
         k_s: pm.k_s,
+        feedthrough: 0.0,
     }
 }
 
@@ -139,7 +140,8 @@ fn an_unstable_margin_is_a_growing_vibration() {
             z[j] = 1e-4; // every mode deflected a little
         }
         // The filter primed with the first sample, as the firmware's is (no start-up kick).
-        z[2 * n] = (0..n).map(|j| l.k_s * l.slope_diff[j] * z[j]).sum::<f64>(); // the filter's previous sample
+        // State (x, u_{k−1}, (u_{k−1}, y_{k−1})): the law's previous film sample is at 2n + 2.
+        z[2 * n + 2] = (0..n).map(|j| l.k_s * l.slope_diff[j] * z[j]).sum::<f64>();
         let mut at_1s = 0.0;
         for k in 0..50_000 {
             z = &m * z;

@@ -4,6 +4,8 @@
 //! - [`robust`]: robust modal damping (Eqs. 11, 16) and how its modal force reaches the motors.
 //! - [`piezo`]: the piezo patch (Eqs. 17–19) and its rate-feedback law.
 //! - [`motor`]: the complete motor step the firmware and the simulator both call.
+//! - [`linear`]: the linear form of a sampled piezo law and the identified loop a design rule
+//!   starts from.
 //!
 //! Underactuation: the laws produce a generalized force over all four coordinates, but the
 //! motors act on the joint rows only (`u = [τ, 0]`, Eq. 6). The joint rows of Eq. 7 become the
@@ -12,6 +14,7 @@
 //! ([`robust::joint_torque_for_modal_accel`]); the piezo patch adds its own modal force
 //! `C_a V_a`.
 
+pub mod linear;
 pub mod motor;
 pub mod piezo;
 pub mod robust;
