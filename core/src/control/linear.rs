@@ -70,3 +70,20 @@ impl<T: Real> IdentifiedLoop<T> {
             && self.static_gain() > T::zero()
     }
 }
+
+/// `x` clamped to `[lo, hi]`.
+#[inline(always)]
+pub(crate) fn clamp<T: Real>(x: T, lo: T, hi: T) -> T {
+    if x > hi {
+        hi
+    } else if x < lo {
+        lo
+    } else {
+        x
+    }
+}
+
+/// The window `[v_min, v_max]` holds 0 V inside, finite.
+pub(crate) fn window_ok<T: Real>(v_min: T, v_max: T) -> bool {
+    v_min.finite() && v_max.finite() && v_min < T::zero() && v_max > T::zero()
+}
