@@ -70,6 +70,9 @@ enum Command {
         /// Length of the closed-loop runs [s].
         #[arg(long, default_value_t = 5.0)]
         duration: f64,
+        /// Bond factors of the film's feedthrough the laws are compared at, 0 to 1.
+        #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::spillover_study::BONDS)]
+        bond: Vec<f64>,
         /// Output folder.
         #[arg(long, default_value = "out/spillover")]
         out: PathBuf,
@@ -413,6 +416,7 @@ fn main_result(cli: Cli) -> Result<()> {
         Command::Spillover {
             modes,
             duration,
+            bond,
             out,
             no_plots,
             force,
@@ -425,7 +429,10 @@ fn main_result(cli: Cli) -> Result<()> {
                 modes,
                 ..TruthSpec::default()
             };
-            let report = spillover_study::run(&spec, duration).map_err(|e| e.to_string())?;
+            if let Some(b) = bond.iter().find(|b| !(0.0..=1.0).contains(*b)) {
+                return Err(format!("--bond {b} must lie in 0 to 1"));
+            }
+            let report = spillover_study::run(&spec, &bond, duration).map_err(|e| e.to_string())?;
             let md = spillover_study::markdown(&report);
             let dir = OutDir::open(&out, "spillover", force)?;
             for (name, text) in [

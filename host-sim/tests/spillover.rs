@@ -3,6 +3,7 @@
 //! prints the margins.
 
 use flexarm_beam::design::DesignModel;
+use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_sim::spillover::{ModalLink, PiezoLoop, gain_margin, spectral_radius};
 
 /// The design beam (the paper's section, aluminium) with the paper's patch, `n` modes.
@@ -215,6 +216,7 @@ fn the_study_finds_the_shipped_gain_unstable_and_the_rule_robust() {
             modes: 10,
             ..TruthSpec::default()
         },
+        &[],
         5.0,
     )
     .unwrap();
@@ -243,4 +245,62 @@ fn the_study_finds_the_shipped_gain_unstable_and_the_rule_robust() {
         "{rule:?}\n{shipped:?}"
     );
     println!("{}", flexarm_sim::spillover_study::markdown(&r));
+}
+
+/// Question 5 (issue 35): the laws on the realistic board with ten modes, across the film's
+/// feedthrough (bond 0, 0.5, 1), `N = 2 … 10`. About 5 s (30 closed-loop runs of 5 s on the
+/// ten-mode truth plant and 135 margins).
+#[test]
+fn only_positive_position_feedback_keeps_its_margin_and_damping_at_every_bond() {
+    use flexarm_sim::spillover_study::{BONDS, MARGIN, compare, meeting_the_goal, recommend, scan};
+    use flexarm_sim::truth_plant::TruthSpec;
+    let spec = TruthSpec {
+        modes: 10,
+        ..TruthSpec::default()
+    };
+    let full = ModalLink::from_truth(&spec, &Default::default(), &PiezoPatch::paper()).unwrap();
+    let board = flexarm_sim::spillover_study::realistic(&spec, FIRMWARE);
+    // The rate law's design rule (question 3), from the 30 Hz column of its scan.
+    let rule = recommend(
+        &scan(
+            &full,
+            &board,
+            &flexarm_sim::spillover_study::gains(),
+            &[30.0],
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let rows = compare(&spec, &BONDS, rule, 5.0).unwrap();
+    let row = |kind: &str, bond: f64| {
+        rows.iter()
+            .find(|r| r.kind == kind && r.bond == bond)
+            .unwrap()
+    };
+    assert_eq!(meeting_the_goal(&rows), vec!["ppf"]);
+    let base = row("rate rule", 0.0).zeta;
+    for &b in &BONDS {
+        let ppf = row("ppf", b);
+        // The rule's static budget: a factor of 2.5 (the DC limit), kept at every N.
+        assert!(ppf.worst_margin() >= MARGIN, "{b}: {:?}", ppf.margins);
+        assert!(
+            ppf.zeta[0] > 1.5 * base[0] && ppf.zeta[1] > 1.2 * base[1],
+            "{b}: {:?}",
+            ppf.zeta
+        );
+        // Settled: with a noise-free film, below the rate rule's residual on mode 1.
+        let clean = ppf.clean.as_ref().unwrap();
+        assert!(clean.tail_delta_abs[0] < 1.0e-6 * 0.2, "{b}: {clean:?}");
+        // IRC keeps its margin but not mode 2's damping.
+        let irc = row("irc", b);
+        assert!(
+            irc.worst_margin() >= MARGIN && irc.zeta[1] < base[1],
+            "{b}: {irc:?}"
+        );
+    }
+    // The rate rule loses its margin to the feedthrough; cancelling F̂ recovers only part.
+    assert!(row("rate rule", 1.0).worst_margin() < 1.0);
+    assert!(row("cancel", 1.0).worst_margin() < MARGIN && row("cancel", 1.0).worst_margin() > 1.0);
+    // The shipped gain is unstable at every N once the film sees half the perfect bond.
+    assert!(row("rate shipped", 0.5).margins.iter().all(|m| m.1 < 0.2));
 }
