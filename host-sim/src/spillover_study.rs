@@ -781,14 +781,15 @@ pub fn csv(r: &Report) -> String {
     s
 }
 
-/// Two panels: the shipped loop's margin against `N` (question 1), and the margin and the
+/// Three panels: the shipped loop's margin against `N` (question 1); the margin and the
 /// damping against `k_c` on the realistic board (question 2, the 100 Hz corner and the
-/// recommended one).
+/// recommended one); each law's factor against `N` by bond factor (question 5).
 pub fn figure(path: &Path, r: &Report) -> Result<(), Box<dyn std::error::Error>> {
-    let root = SVGBackend::new(path, (1200, 500)).into_drawing_area();
+    let root = SVGBackend::new(path, (1800, 500)).into_drawing_area();
     root.fill(&WHITE)?;
-    let (left, right) = root.split_horizontally(600);
-    let colours = [BLUE, RED, GREEN, MAGENTA];
+    let (left, rest) = root.split_horizontally(600);
+    let (right, third) = rest.split_horizontally(600);
+    let colours = [BLUE, RED, GREEN, MAGENTA, CYAN];
     let clamp = |x: f64| x.clamp(1e-3, 1e4);
 
     let mut c = ChartBuilder::on(&left)
@@ -877,7 +878,72 @@ pub fn figure(path: &Path, r: &Report) -> Result<(), Box<dyn std::error::Error>>
         .border_style(BLACK)
         .background_style(WHITE.mix(0.8))
         .draw()?;
+    comparison_panel(&third, r, &colours)?;
     root.present()?;
+    Ok(())
+}
+
+/// Question 5's panel: each law's factor against `N`, one line per bond factor (fainter for
+/// smaller bonds).
+fn comparison_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    r: &Report,
+    colours: &[RGBColor],
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    let Some(first) = r.comparison.first() else {
+        return Ok(());
+    };
+    let n_max = first.margins.last().map_or(2, |m| m.0);
+    let mut c = ChartBuilder::on(area)
+        .caption(
+            "Laws on the realistic board: factor against N, by bond",
+            ("sans-serif", 18),
+        )
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(2usize..n_max.max(3), (1e-2f64..1e2f64).log_scale())?;
+    c.configure_mesh()
+        .x_desc("modes of link 2, N")
+        .y_desc("factor on the actuator path")
+        .draw()?;
+    c.draw_series(LineSeries::new(
+        [(2, MARGIN), (n_max.max(3), MARGIN)],
+        BLACK.stroke_width(1),
+    ))?;
+    let max_bond = r.comparison.iter().map(|x| x.bond).fold(0.0, f64::max);
+    let mut kinds: Vec<&'static str> = Vec::new();
+    for row in &r.comparison {
+        let k = match kinds.iter().position(|k| *k == row.kind) {
+            Some(k) => k,
+            None => {
+                kinds.push(row.kind);
+                kinds.len() - 1
+            }
+        };
+        let alpha = if max_bond > 0.0 {
+            0.3 + 0.7 * row.bond / max_bond
+        } else {
+            1.0
+        };
+        let style = colours[k % colours.len()].mix(alpha).stroke_width(2);
+        let series = c.draw_series(LineSeries::new(
+            row.margins.iter().map(|(n, m)| (*n, m.clamp(1e-2, 1e2))),
+            style,
+        ))?;
+        if row.bond == max_bond {
+            series
+                .label(format!("{} (β = {})", row.kind, row.bond))
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 15, y)], style));
+        }
+    }
+    c.configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()?;
     Ok(())
 }
 
