@@ -230,7 +230,8 @@ pub struct Report {
 }
 
 /// Runs the study on the truth plant `spec` (its `modes` is the largest `N`), on the paper's
-/// arm and patch; `sim_duration` [s] is the length of the closed-loop runs.
+/// arm and patch; question 5 at the bond factors `bonds` (none: skipped); `sim_duration` [s] is
+/// the length of the closed-loop runs.
 pub fn run(spec: &TruthSpec, bonds: &[f64], sim_duration: f64) -> Result<Report, SimError> {
     let arm = ArmParams::<f64>::default();
     let patch = PiezoPatch::<f64>::paper();

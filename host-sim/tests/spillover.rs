@@ -304,3 +304,50 @@ fn only_positive_position_feedback_keeps_its_margin_and_damping_at_every_bond() 
     // The shipped gain is unstable at every N once the film sees half the perfect bond.
     assert!(row("rate shipped", 0.5).margins.iter().all(|m| m.1 < 0.2));
 }
+
+/// The simulator runs the laws of issue 35 with the full state only, and refuses an invalid one
+/// with its key.
+#[test]
+fn the_simulator_refuses_a_law_it_cannot_run() {
+    use flexarm_core::control::irc::IrcGains;
+    use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
+    use flexarm_sim::sim::{PiezoLawChoice, SimConfig, SimError, StateSource, simulate};
+    let irc = IrcGains {
+        gamma: 1e3f32,
+        feedthrough: -5e-3,
+        leak_hz: 0.5,
+    };
+    let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
+    let key = |r: Result<_, SimError>| match r {
+        Err(SimError::Input { key, .. }) => key,
+        other => panic!("{other:?}"),
+    };
+    let observer = SimConfig {
+        piezo_law: Some(PiezoLawChoice::Irc(irc)),
+        state: StateSource::Observer,
+        duration: 0.01,
+        tail_window: 0.005,
+        ..SimConfig::default()
+    };
+    assert_eq!(
+        key(simulate(&observer, &traj, false).map(|_| ())),
+        "piezo_law"
+    );
+    let negative = SimConfig {
+        piezo_law: Some(PiezoLawChoice::Irc(IrcGains { gamma: -1.0, ..irc })),
+        duration: 0.01,
+        tail_window: 0.005,
+        ..SimConfig::default()
+    };
+    assert_eq!(
+        key(simulate(&negative, &traj, false).map(|_| ())),
+        "piezo_law"
+    );
+    let fine = SimConfig {
+        piezo_law: Some(PiezoLawChoice::Irc(irc)),
+        duration: 0.01,
+        tail_window: 0.005,
+        ..SimConfig::default()
+    };
+    assert!(simulate(&fine, &traj, false).is_ok());
+}
