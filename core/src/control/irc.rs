@@ -8,7 +8,8 @@
 //! feedthrough `F` and however many modes), and an integrator around such a plant is stable for
 //! every `Γ` (its root locus loops from each pole into the left half-plane back to the zero
 //! below it). The leak `ω_l` keeps a film offset from winding the integrator up. The stability
-//! limit on the actuator path's gain is the static one: a factor `|d| / G(0)`.
+//! limit on the actuator path's gain is the static one: the controller is
+//! `Γ/(s + ω_l + Γ|d|)`, so a factor `|d|/G(0) + ω_l/(Γ G(0))`.
 //!
 //! Sampled at `T`, the command is the integrator itself, clamped to the amplifier's window
 //! (which is the anti-windup): with `x_{k−1}` the last command,
