@@ -363,12 +363,14 @@ pub struct Cubic<T> {
 }
 
 impl<T: Real> Cubic<T> {
-    /// Desired motion at `t` [s]: the curve on `[0, T]`; `start` at its speed `v0` before (and
-    /// for a NaN time), `end` at `v1` after, both without acceleration.
+    /// Desired motion at `t` [s]: the curve on `[0, T)`; `start` at its speed `v0` before (and
+    /// for a NaN time), `end` at `v1` from `T` on, both without acceleration. Right-continuous
+    /// at `t = 0` like [`Profile::sample`]: the sample the motor loop takes at the start (and
+    /// holds for a period) already carries the curve's acceleration.
     pub fn sample(&self, t: T) -> JointTarget<T> {
         let z = T::zero();
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
-        if !(t > z) {
+        if !(t >= z) {
             return JointTarget {
                 q: self.start,
                 qd: self.v0,

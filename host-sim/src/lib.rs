@@ -8,6 +8,7 @@
 
 pub mod actuators;
 pub mod cli;
+pub mod eigen;
 pub mod firmware_params;
 pub mod identify;
 pub mod montecarlo;

@@ -70,6 +70,9 @@ enum Command {
         /// Length of the closed-loop runs [s].
         #[arg(long, default_value_t = 5.0)]
         duration: f64,
+        /// Bond factors of the film's feedthrough the laws are compared at, 0 to 1.
+        #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::spillover_study::BONDS)]
+        bond: Vec<f64>,
         /// Output folder.
         #[arg(long, default_value = "out/spillover")]
         out: PathBuf,
@@ -183,6 +186,10 @@ struct PlantArgs {
     /// Modes of the truth plant's link 2, 1 to 10 [default: 6].
     #[arg(long)]
     modes: Option<usize>,
+    /// Bond factor of the truth plant's film feedthrough, 0 to 1 [default: 0]
+    /// (`plant.film_bond`).
+    #[arg(long)]
+    film_bond: Option<f64>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -195,17 +202,26 @@ impl PlantArgs {
     /// The truth plant asked for, checked.
     fn truth(&self) -> Result<Option<TruthSpec>> {
         if self.plant == PlantKind::Model {
-            return match self.modes {
-                Some(_) => Err("--modes needs --plant truth".into()),
-                None => Ok(None),
+            return match (self.modes, self.film_bond) {
+                (Some(_), _) => Err("--modes needs --plant truth".into()),
+                (_, Some(_)) => Err("--film-bond needs --plant truth".into()),
+                (None, None) => Ok(None),
             };
         }
         let d = TruthSpec::default();
         let t = TruthSpec {
             modes: self.modes.unwrap_or(d.modes),
+            film_bond: self.film_bond.unwrap_or(d.film_bond),
             ..d
         };
-        t.validate().map_err(|(_, msg)| format!("--modes: {msg}"))?;
+        t.validate().map_err(|(key, msg)| {
+            let option = if key == "plant.film_bond" {
+                "--film-bond"
+            } else {
+                "--modes"
+            };
+            format!("{option}: {msg}")
+        })?;
         Ok(Some(t))
     }
 }
@@ -400,6 +416,7 @@ fn main_result(cli: Cli) -> Result<()> {
         Command::Spillover {
             modes,
             duration,
+            bond,
             out,
             no_plots,
             force,
@@ -412,7 +429,10 @@ fn main_result(cli: Cli) -> Result<()> {
                 modes,
                 ..TruthSpec::default()
             };
-            let report = spillover_study::run(&spec, duration).map_err(|e| e.to_string())?;
+            if let Some(b) = bond.iter().find(|b| !(0.0..=1.0).contains(*b)) {
+                return Err(format!("--bond {b} must lie in 0 to 1"));
+            }
+            let report = spillover_study::run(&spec, &bond, duration).map_err(|e| e.to_string())?;
             let md = spillover_study::markdown(&report);
             let dir = OutDir::open(&out, "spillover", force)?;
             for (name, text) in [

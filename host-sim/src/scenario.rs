@@ -92,6 +92,7 @@ struct PlantSpec {
     amplifier_current: Option<f64>,
     capacitance: Option<f64>,
     film_corner_hz: Option<f64>,
+    film_bond: Option<f64>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
@@ -130,6 +131,7 @@ impl PlantSpec {
                 self.amplifier_current,
                 self.capacitance,
                 self.film_corner_hz,
+                self.film_bond,
             ];
             let pairs = [
                 self.current_tau,
@@ -179,6 +181,7 @@ impl PlantSpec {
         set(&mut t.amplifier_current, self.amplifier_current);
         set(&mut t.capacitance, self.capacitance);
         set(&mut t.film_corner_hz, self.film_corner_hz);
+        set(&mut t.film_bond, self.film_bond);
         if let Some(w) = self.amplifier_window {
             t.amplifier_window = w;
         }

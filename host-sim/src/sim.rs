@@ -9,8 +9,11 @@
 //!
 //! The indices use the true state, whatever the controller sees.
 
+use flexarm_core::control::cancel::{CancelGains, FeedthroughCancel};
+use flexarm_core::control::irc::{Irc, IrcGains};
 use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+use flexarm_core::control::ppf::{Ppf, PpfGains};
 use flexarm_core::controller::Controller;
 use flexarm_core::indices::{L2Norm, TailMean};
 use flexarm_core::model::Model;
@@ -105,8 +108,12 @@ pub struct Sensors {
     pub adc_range: f64,
     /// White noise on the film voltage, standard deviation [V].
     pub film_noise: f64,
-    /// Every measurement reaches the controller one period late.
+    /// Every measurement reaches the controller one period late (the motor loop's: the piezo
+    /// loop reads the film when it runs, unless `piezo_delay`).
     pub delay: bool,
+    /// The film reaches the piezo loop one piezo period late (the spillover study's
+    /// "realistic board"; off in [`Sensors::realistic`], whose published runs had it off).
+    pub piezo_delay: bool,
     /// Piezo amplifier slew-rate limit [V/s]; `None` = unlimited.
     pub piezo_slew: Option<f64>,
     /// Seed of the noise generator (runs are reproducible).
@@ -122,6 +129,7 @@ impl Default for Sensors {
             adc_range: 10.0,
             film_noise: 0.0,
             delay: false,
+            piezo_delay: false,
             piezo_slew: None,
             seed: 1,
         }
@@ -138,6 +146,7 @@ impl Sensors {
             adc_range: 10.0,
             film_noise: 5e-3,
             delay: true,
+            piezo_delay: false,
             piezo_slew: Some(5e4),
             seed: 1,
         }
@@ -218,6 +227,9 @@ pub struct SimConfig {
     pub patch: PiezoPatch<f64>,
     /// Piezo loop gains; `None` leaves the actuator at 0 V.
     pub piezo: Option<PiezoGains<f32>>,
+    /// A piezo law of issue 35 run instead of the paper's (`piezo`), full state only: the
+    /// spillover study's time-domain checks (the controller's `piezo_step` runs `PiezoLaw`).
+    pub piezo_law: Option<PiezoLawChoice>,
     /// Rates.
     pub rates: Rates,
     /// Where the law takes the state from.
@@ -244,6 +256,7 @@ impl Default for SimConfig {
             law: MotorLaw::Tracking,
             patch: PiezoPatch::paper(),
             piezo: None,
+            piezo_law: None,
             rates: Rates::default(),
             state: StateSource::Full,
             sensors: Sensors::default(),
@@ -373,12 +386,67 @@ pub struct Summary {
     pub motion_streaks: (u32, u32),
 }
 
+/// A piezo law of issue 35 with its gains ([`SimConfig::piezo_law`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PiezoLawChoice {
+    /// Positive position feedback.
+    Ppf(PpfGains<f32>),
+    /// Integral resonant control.
+    Irc(IrcGains<f32>),
+    /// Rate feedback with the identified feedthrough subtracted.
+    Cancel(CancelGains<f32>),
+}
+
+/// The full-state loop's piezo law.
+enum FullPiezo {
+    Rate(PiezoLaw<f32>),
+    Ppf(Ppf<f32>),
+    Irc(Irc<f32>),
+    Cancel(FeedthroughCancel<f32>),
+}
+
+impl FullPiezo {
+    fn new(c: &PiezoLawChoice, period: f32, v_min: f32, v_max: f32) -> Result<Self, SimError> {
+        let (law, ok) = match c {
+            PiezoLawChoice::Ppf(g) => {
+                let l = Ppf::new(g, period, v_min, v_max);
+                (Self::Ppf(l), l.is_valid())
+            }
+            PiezoLawChoice::Irc(g) => {
+                let l = Irc::new(g, period, v_min, v_max);
+                (Self::Irc(l), l.is_valid())
+            }
+            PiezoLawChoice::Cancel(g) => {
+                let l = FeedthroughCancel::new(g, period, v_min, v_max);
+                (Self::Cancel(l), l.is_valid())
+            }
+        };
+        if ok {
+            Ok(law)
+        } else {
+            Err(SimError::Input {
+                key: "piezo_law",
+                msg: format!("{c:?} gives no valid law at the piezo period {period} s"),
+            })
+        }
+    }
+
+    fn step(&mut self, v_f: f32) -> f32 {
+        match self {
+            Self::Rate(l) => l.step(v_f),
+            Self::Ppf(l) => l.step(v_f),
+            Self::Irc(l) => l.step(v_f),
+            Self::Cancel(l) => l.step(v_f),
+        }
+    }
+}
+
 /// The motor-side controller of a run (one per run: its size does not matter).
 #[allow(clippy::large_enum_variant)]
 enum Loop {
     Full {
         motor: MotorController<f32>,
-        piezo: Option<PiezoLaw<f32>>,
+        piezo: Option<FullPiezo>,
     },
     Observer(Box<Controller<f32>>),
 }
@@ -406,8 +474,22 @@ fn build(
     Ok(match cfg.state {
         StateSource::Full => Loop::Full {
             motor,
-            piezo: cfg.piezo.map(piezo_law),
+            piezo: match &cfg.piezo_law {
+                Some(c) => Some(FullPiezo::new(
+                    c,
+                    piezo_period as f32,
+                    cfg.limits.v_a_min,
+                    cfg.limits.v_a_max,
+                )?),
+                None => cfg.piezo.map(|g| FullPiezo::Rate(piezo_law(g))),
+            },
         },
+        StateSource::Observer if cfg.piezo_law.is_some() => {
+            return Err(SimError::Input {
+                key: "piezo_law",
+                msg: "runs with the full state only (the controller runs the paper's law)".into(),
+            });
+        }
         StateSource::Observer => {
             let patch32 = cfg.patch.to_f32();
             let th0 = traj.sample(0.0).q;
@@ -855,17 +937,23 @@ fn run(
     let motion = MotionLimits::<f32>::default_for(cfg.rates.motor_hz.round() as u32);
     let mut monitor = MotionMonitor::<f32>::new();
 
+    let mut film_held: Option<f64> = None;
     for k in 0..steps {
         let t = k as f64 * dt;
         if k % piezo_div == 0 {
             v_f = cfg.sensors.film(plant.film(), &mut rng);
+            // The sample the piezo law reads: this one, or the last period's.
+            let v_read = match (cfg.sensors.piezo_delay, film_held.replace(v_f)) {
+                (true, Some(old)) => old,
+                _ => v_f,
+            };
             let cmd = match &mut ctrl {
                 Loop::Full { piezo, .. } => piezo
                     .as_mut()
-                    .map_or(0.0, |p| f64::from(p.step(v_f as f32))),
+                    .map_or(0.0, |p| f64::from(p.step(v_read as f32))),
                 // With the piezo loop off its task does not run: the controller's command stays
                 // 0 V, which is what the plant gets and what its observer predicts with.
-                Loop::Observer(c) if cfg.piezo.is_some() => f64::from(c.piezo_step(v_f as f32)),
+                Loop::Observer(c) if cfg.piezo.is_some() => f64::from(c.piezo_step(v_read as f32)),
                 Loop::Observer(_) => 0.0,
             };
             // The bias on top: with the loop off the controller's command persists, so the

@@ -333,3 +333,37 @@ fn a_scenario_can_give_the_controller_another_model_on_purpose() {
     let f1 = truncation.arm.modes.omega.x / std::f64::consts::TAU;
     assert!((f1 - 4.54).abs() < 0.01, "{f1}");
 }
+
+/// The film's feedthrough (`plant.film_bond`): right after a step of the patch voltage the film
+/// jumps by `β F ΔV` before any mode has moved, and without it there is no jump; the jump is
+/// opposite in sign to the slow (bending) response that follows.
+#[test]
+fn the_film_jumps_by_the_bonds_share_of_the_feedthrough() {
+    let f = flexarm_core::control::piezo::PiezoMaterial::<f64> {
+        t_b: flexarm_sim::truth_plant::DEFAULT_THICKNESS,
+        ..Default::default()
+    }
+    .film_feedthrough();
+    let dt = 1e-5;
+    for bond in [0.0, 0.5, 1.0] {
+        let spec = TruthSpec {
+            modes: 4,
+            film_bond: bond,
+            ..TruthSpec::default().ideal_actuators()
+        };
+        let mut p = plant::<6>(&spec);
+        p.step(&Vector2::zeros(), 10.0, dt).unwrap();
+        let jump = p.film();
+        // The modes move by t²/2 · Σ g_j ΔV in the first step: 6.6e-8 V here, 6e-6 of the jump.
+        assert!(
+            (jump - bond * f * 10.0).abs() < 1e-5 * (f * 10.0).abs(),
+            "bond {bond}: {jump} vs {}",
+            bond * f * 10.0
+        );
+        // 0.2 s later the bending path has taken over, with the other sign.
+        for _ in 0..20_000 {
+            p.step(&Vector2::zeros(), 10.0, dt).unwrap();
+        }
+        assert!(p.film() > 0.0, "bond {bond}: {}", p.film());
+    }
+}
