@@ -378,7 +378,7 @@ fn main_result(cli: Cli) -> Result<()> {
                 out: &out_name,
             };
             let p = firmware_params::design(&text)
-                .map_err(|e| flexarm_beam::config::at_line(&path, &text, &e.0))?;
+                .map_err(|e| flexarm_beam::toml_at::at_line(&path, &text, &e.0))?;
             let source = firmware_params::source(&p, &names);
             refuse_foreign(&out, force, firmware_params::is_generated_source)?;
             write_atomic(&out, source.as_bytes())?;
@@ -472,7 +472,7 @@ fn main_result(cli: Cli) -> Result<()> {
                     let text = std::fs::read_to_string(p)
                         .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
                     let (arm, choice) = flexarm_sim::scenario::read_model(&text)
-                        .map_err(|e| flexarm_beam::config::at_line(p, &text, &e.0))?;
+                        .map_err(|e| flexarm_beam::toml_at::at_line(p, &text, &e.0))?;
                     Some((arm, choice.patch))
                 }
                 None => None,

@@ -172,10 +172,7 @@ impl TruthSpec {
             if v.is_finite() && v >= lo && v <= hi {
                 Ok(())
             } else {
-                bad(
-                    key,
-                    format!("{v} {unit} is outside {lo:e} to {hi:e} {unit}"),
-                )
+                bad(key, flexarm_beam::toml_at::outside_range(v, lo, hi, unit))
             }
         };
         range("plant.thickness", self.thickness, 1e-4, 2e-2, "m")?;
