@@ -1081,3 +1081,72 @@ fn a_pose_outside_the_observers_range_is_refused_up_front() {
         assert!(got.starts_with(&format!("error: {want}")), "{name}: {got}");
     }
 }
+
+#[test]
+fn parallel_runs_into_one_folder_keep_every_manifest_entry() {
+    let out = fresh_dir("parallel");
+    let out_s = out.to_str().unwrap();
+    let files: Vec<_> = (0..6)
+        .map(|i| {
+            scratch(
+                &format!("parallel{i}.toml"),
+                &format!(
+                    "name = \"p{i}\"\nduration = 0.2\ntail_window = 0.1\n[trajectory]\nkind = \"hold\"\nangles = [0.0, 0.5]\n"
+                ),
+            )
+        })
+        .collect();
+    // Started together, they finish together.
+    let children: Vec<_> = files
+        .iter()
+        .map(|p| {
+            Command::new(env!("CARGO_BIN_EXE_flexarm-sim"))
+                .args(["run", p.to_str().unwrap(), "--out", out_s, "--no-plots"])
+                .stdout(std::process::Stdio::null())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for mut c in children {
+        assert!(c.wait().unwrap().success());
+    }
+    let manifest = std::fs::read_to_string(out.join(".flexarm-outputs")).unwrap();
+    for i in 0..6 {
+        for file in [format!("p{i}_indices.md"), format!("p{i}_scenario.csv")] {
+            assert!(
+                manifest.contains(&format!("run:p{i}\t{file}\n")),
+                "{file} lost: {manifest}"
+            );
+            assert!(out.join(&file).exists(), "{file}");
+        }
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn a_failed_command_leaves_no_output_folder_and_names_the_users_path() {
+    let out = fresh_dir("failed");
+    let (ok, _, stderr) = sim(&[
+        "optimize",
+        "/nonexistent/optimize.toml",
+        "--out",
+        out.join("optimize").to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.contains("cannot read"), "{stderr}");
+    assert!(!out.exists(), "no empty folder left: {:?}", names_in(&out));
+    // `--out` in a folder that does not exist: the error names that path.
+    let target = out.join("nodir").join("g.rs");
+    let fragment = format!("{}/../firmware/piezo.toml", env!("CARGO_MANIFEST_DIR"));
+    let (ok, _, stderr) = sim(&[
+        "firmware-params",
+        &fragment,
+        "--out",
+        target.to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && stderr.starts_with(&format!("error: cannot write {}: ", target.display())),
+        "{stderr}"
+    );
+    assert!(!stderr.contains(".tmp-"), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+}
