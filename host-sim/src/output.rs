@@ -140,19 +140,28 @@ fn read_csv_within(
 
 /// Writes `<scenario>_<controller>.csv`: one row per motor period.
 pub fn write_csv(dir: &Path, o: &Outcome) -> std::io::Result<()> {
-    fs::write(
-        dir.join(format!("{}_{}.csv", o.case.scenario, o.case.controller)),
-        trace_csv(&o.trace),
-    )
+    let path = dir.join(format!("{}_{}.csv", o.case.scenario, o.case.controller));
+    // Row by row: the text of a long trace is never held whole beside the trace.
+    let mut w = std::io::BufWriter::new(fs::File::create(path)?);
+    write_trace(&mut w, &o.trace)?;
+    std::io::Write::flush(&mut w)
 }
 
 /// A trace as the CSV [`read_csv`] reads ([`CSV_HEADER`]).
 pub fn trace_csv(trace: &[crate::sim::Sample]) -> String {
-    let mut s = format!("{CSV_HEADER}\n");
+    let mut out = Vec::new();
+    // Writing into memory does not fail.
+    let _ = write_trace(&mut out, trace);
+    String::from_utf8(out).unwrap_or_default()
+}
+
+/// Writes the header and one row per sample of `trace` to `w`.
+fn write_trace(w: &mut impl std::io::Write, trace: &[crate::sim::Sample]) -> std::io::Result<()> {
+    writeln!(w, "{CSV_HEADER}")?;
     for p in trace {
         let q = &p.x.q;
-        let _ = writeln!(
-            s,
+        writeln!(
+            w,
             "{:.5},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e}",
             p.t,
             q.x,
@@ -170,9 +179,9 @@ pub fn trace_csv(trace: &[crate::sim::Sample]) -> String {
             p.tau.y,
             p.v_a,
             p.v_f
-        );
+        )?;
     }
-    s
+    Ok(())
 }
 
 type Series = (&'static str, Vec<(f64, f64)>);

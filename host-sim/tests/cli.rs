@@ -1150,3 +1150,28 @@ fn a_failed_command_leaves_no_output_folder_and_names_the_users_path() {
     assert!(!stderr.contains(".tmp-"), "{stderr}");
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
 }
+
+#[test]
+fn a_study_too_large_to_hold_is_refused_up_front() {
+    // 24 runs of 1e6 samples (3.5 GB): refused before any runs, with the size and the bound.
+    let out = fresh_dir("study-size");
+    let (ok, _, stderr) = sim(&[
+        "paper",
+        "--plant",
+        "truth",
+        "--modes",
+        "7",
+        "--duration",
+        "1000",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok, "{stderr}");
+    assert!(
+        stderr.contains("`duration`: 24 runs would hold 2.400e7 motor samples together")
+            && stderr.contains("a study holds at most 2e6"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(!out.exists());
+}
