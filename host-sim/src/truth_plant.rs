@@ -34,8 +34,9 @@ use flexarm_core::params::{ArmParams, ModalData};
 use flexarm_core::{Vector2, Vector4};
 
 use crate::actuators::{FilmAmplifier, Motor, PiezoAmplifier};
-use crate::plant::{Diverged, Plant, State};
+use crate::plant::{Diverged, Plant, StableStep, State, stable_step_over_poses};
 use crate::truth::{Coords, LinkBody, TruthArm, TruthError};
+use nalgebra::DMatrix;
 
 /// Most modes of link 2 the truth plant keeps.
 pub const MAX_MODES: usize = 10;
@@ -480,6 +481,26 @@ impl<const D: usize> Plant for TruthPlant<D> {
         self.qd = qd;
         self.film.step(self.film_map.dot(&q), dt);
         Ok(())
+    }
+
+    fn stable_step(&self) -> StableStep {
+        let (k, mut c) = self.arm.stiffness_damping();
+        // The viscous friction damps the joints. The Coulomb term `F_c tanh(v / v_s)` is as
+        // stiff as `F_c / v_s` at rest but saturates: a step past that slope's limit chatters
+        // within about `v_s` of rest instead of diverging, so it sets no limit here.
+        for (j, m) in self.motors.iter().enumerate() {
+            c[j] += m.viscous;
+        }
+        stable_step_over_poses(
+            |t2| {
+                let mut q = Coords::<D>::zeros();
+                q[1] = t2;
+                let b = self.arm.inertia(&q);
+                DMatrix::from_iterator(D, D, b.iter().copied())
+            },
+            c.as_slice(),
+            k.as_slice(),
+        )
     }
 }
 

@@ -1175,3 +1175,35 @@ fn a_study_too_large_to_hold_is_refused_up_front() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(!out.exists());
 }
+
+#[test]
+fn a_coarse_plant_step_names_the_step_it_needs() {
+    // Ten modes at 1 ms: the truth link's fastest mode diverges under RK4. Refused before the
+    // runs step, with the step to give, not "the plant state diverged".
+    let (ok, _, stderr) = sim(&[
+        "paper",
+        "--plant",
+        "truth",
+        "--modes",
+        "10",
+        "--plant-dt",
+        "1e-3",
+        "--piezo-hz",
+        "1000",
+        "--out",
+        fresh_dir("coarse").to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.lines().count() == 1, "{stderr}");
+    assert!(
+        stderr.contains("`rates.plant_dt`: 1e-3 s is too coarse for this plant")
+            && !stderr.contains("diverged ("),
+        "{stderr}"
+    );
+    let give: f64 = stderr
+        .split("give --plant-dt (`rates.plant_dt`) ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(f64::NAN);
+    assert!(give > 1e-4 && give < 1e-3, "{stderr}");
+}
