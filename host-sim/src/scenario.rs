@@ -876,6 +876,7 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
         }
     }
     cfg.validate(&trajectory).map_err(sim_error)?;
+    crate::plant::check_step(&cfg, trajectory.sample(0.0).q.cast()).map_err(sim_error)?;
     let name = f.name.unwrap_or_else(|| "scenario".into());
     crate::outdir::check_file_name(&name)
         .map_err(|e| ScenarioError(format!("`name`: {e}: it names the output files")))?;

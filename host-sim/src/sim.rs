@@ -520,22 +520,8 @@ impl SimConfig {
         Ok(self)
     }
 
-    /// The plant of this run at rest at the joint angles `theta` [rad]; refused when the plant
-    /// step is coarser than the plant's stable RK4 step ([`Plant::stable_step`]), naming the
-    /// step it needs.
+    /// The plant of this run at rest at the joint angles `theta` [rad].
     pub fn plant_at(&self, theta: Vector2<f64>) -> Result<Box<dyn Plant + Send>, SimError> {
-        let plant = self.build_plant(theta)?;
-        let stable = plant.stable_step();
-        if self.rates.plant_dt > stable.dt {
-            return Err(SimError::Input {
-                key: "rates.plant_dt",
-                msg: crate::plant::too_coarse(self.rates.plant_dt, &stable),
-            });
-        }
-        Ok(plant)
-    }
-
-    fn build_plant(&self, theta: Vector2<f64>) -> Result<Box<dyn Plant + Send>, SimError> {
         let arm = self.plant.unwrap_or(self.arm);
         match &self.truth {
             None => Ok(Box::new(ModelPlant::new(

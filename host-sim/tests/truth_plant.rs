@@ -351,14 +351,6 @@ fn stays_put(p: &mut dyn Plant, dt: f64) -> bool {
     p.state().qd.abs().max() <= 2.0 * after_pulse
 }
 
-/// `cfg` with the finest plant step, so that `plant_at` builds its plant whatever its stable
-/// step (the plant itself steps at any).
-fn fine(cfg: SimConfig) -> SimConfig {
-    let mut cfg = cfg;
-    cfg.rates.plant_dt = flexarm_sim::sim::PLANT_DT_RANGE.0;
-    cfg
-}
-
 #[test]
 fn the_stable_step_is_where_rk4_stops_diverging() {
     // A family of links: stiffer, softer, more modes, a payload, stiff viscous joints; and the
@@ -384,7 +376,7 @@ fn the_stable_step_is_where_rk4_stops_diverging() {
         spec(3, 1.5e-3, 0.1, 0.02),
         spec(2, 2.5e-3, 0.0, 500.0),
     ] {
-        let cfg = fine(SimConfig::default().with_truth(s).unwrap());
+        let cfg = SimConfig::default().with_truth(s).unwrap();
         let stable = cfg.plant_at(Vector2::zeros()).unwrap().stable_step();
         // At the pose where it is fastest.
         let pose = Vector2::new(0.0, stable.theta2);
@@ -410,10 +402,10 @@ fn the_stable_step_is_where_rk4_stops_diverging() {
         flexarm_core::Vector2::new(200.0, 900.0) * std::f64::consts::TAU,
         arm.modes.zeta,
     );
-    let cfg = fine(SimConfig {
+    let cfg = SimConfig {
         arm,
         ..SimConfig::default()
-    });
+    };
     let stable = cfg.plant_at(Vector2::zeros()).unwrap().stable_step();
     for (factor, put) in [(0.95, true), (1.05, false)] {
         let mut p = cfg.plant_at(Vector2::new(0.0, stable.theta2)).unwrap();
