@@ -8,7 +8,8 @@
 //! `piezo.computed.mass_integral[0]`; `name[]` stands for some element of `name`. A check after
 //! parsing starts its message with the path of the key it is about, in backticks, or with
 //! `[table]: ` (the line of that key or table is found here); a key the file does not write
-//! (a default that fails) is placed at its table's header.
+//! (a default that fails) is placed at another key the message names that the file writes
+//! (the one it fails against), else at its table's header.
 
 use std::ops::Range;
 use std::path::Path;

@@ -69,15 +69,14 @@ impl OutDir {
     /// Opens `dir` (created if missing) for `command` (a stable key such as `paper` or
     /// `run:trapezoid`) and a fresh staging folder inside it.
     pub fn open(dir: &Path, command: &str, force: bool) -> Result<Self, String> {
-        let created: Vec<PathBuf> = dir
+        // The folders that do not exist yet, outermost first.
+        let mut created: Vec<PathBuf> = dir
             .ancestors()
             .filter(|a| !a.as_os_str().is_empty())
             .take_while(|a| !a.exists())
             .map(Path::to_path_buf)
-            .collect::<Vec<_>>()
-            .into_iter()
-            .rev()
             .collect();
+        created.reverse();
         let mut out = Self {
             dir: dir.to_path_buf(),
             staging: dir.join(format!(
