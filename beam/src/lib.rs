@@ -15,3 +15,4 @@ pub mod optimize;
 pub mod plot;
 pub mod section;
 pub mod segmented;
+pub mod toml_at;

@@ -20,6 +20,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use flexarm_beam::toml_at::{array, at_line, de_error, option_array};
 use flexarm_core::Vector2;
 use flexarm_core::control::motor::MotorLaw;
 use flexarm_core::controller::Controller;
@@ -56,13 +57,14 @@ pub struct Info {
     pub k_c: f32,
     /// The joints' `K_p` the firmware ran [N·m·s/rad] (absent from older recordings: then the
     /// core's `Gains::default_for(motor_hz)`).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "option_array")]
     pub kp: Option<[f32; 2]>,
     /// Frames recorded.
     pub frames: usize,
     /// Frames lost on the way (gaps in the sequence numbers).
     pub lost: u64,
     /// The pose held when the move started (the drive's reference) [rad].
+    #[serde(deserialize_with = "array")]
     pub from: [f32; 2],
     /// The move.
     #[serde(rename = "move")]
@@ -373,12 +375,8 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
     let text = std::fs::read_to_string(&toml_path).map_err(|e| {
         ConsoleError::Usage(format!("{shown}: {e} (record writes it beside the CSV)"))
     })?;
-    let info: Info = toml::from_str(&text).map_err(|e| {
-        let line = e.span().map_or(1, |s| {
-            text[..s.start.min(text.len())].lines().count().max(1)
-        });
-        ConsoleError::Usage(format!("{shown}:{line}: {}", e.message()))
-    })?;
+    let info: Info = toml::from_str(&text)
+        .map_err(|e| ConsoleError::Usage(at_line(&toml_path, &text, &de_error(&text, &e))))?;
     let Some(mv) = info.mv else {
         return Err(ConsoleError::Usage(format!(
             "{shown}: the recording started no move; record one with a move to compare (flexarm record … trapezoid …)"

@@ -9,7 +9,7 @@ use flexarm_sim::outdir::{OutDir, write_atomic};
 use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource};
 use flexarm_sim::study::{self, Case, Options, Outcome};
 use flexarm_sim::truth_plant::TruthSpec;
-use flexarm_sim::{firmware_params, montecarlo, output, scenario, spillover_study};
+use flexarm_sim::{firmware_params, montecarlo, output, plant, scenario, spillover_study};
 
 #[derive(Parser)]
 #[command(
@@ -302,13 +302,16 @@ fn main_result(cli: Cli) -> Result<()> {
             common.apply(&mut opts.rates, &mut opts.duration);
             let cases = study::paper_cases(&opts).map_err(|e| e.to_string())?;
             for c in &cases {
-                c.config.validate(&c.trajectory).map_err(|e| {
-                    if common.overrides() {
-                        format!("with the command-line options: {e}")
-                    } else {
-                        e.to_string()
-                    }
-                })?;
+                c.config
+                    .validate(&c.trajectory)
+                    .and_then(|()| plant::check_step(&c.config, start(&c.trajectory)))
+                    .map_err(|e| {
+                        if common.overrides() {
+                            format!("with the command-line options: {e}")
+                        } else {
+                            e.to_string()
+                        }
+                    })?;
             }
             let note = study::printed_circle_error()
                 .map(|e| format!("{e}; the study runs the nearest reachable circle of the same radius, centre (0.65, 0) m (docs/model.md).\n\n"))
@@ -331,9 +334,12 @@ fn main_result(cli: Cli) -> Result<()> {
             }
             common.apply(&mut config.rates, &mut config.duration);
             // The overrides go through the same check as the file.
-            config.validate(&sc.trajectory).map_err(|e| {
-                format!("{}: with the command-line options: {e}", scenario.display())
-            })?;
+            config
+                .validate(&sc.trajectory)
+                .and_then(|()| plant::check_step(&config, start(&sc.trajectory)))
+                .map_err(|e| {
+                    format!("{}: with the command-line options: {e}", scenario.display())
+                })?;
             let report = format!("{}_indices.md", sc.name);
             let command = format!("run:{}", sc.name);
             let name: &'static str = Box::leak(sc.name.into_boxed_str());
@@ -394,7 +400,7 @@ fn main_result(cli: Cli) -> Result<()> {
                 out: &out_name,
             };
             let p = firmware_params::design(&text)
-                .map_err(|e| flexarm_beam::config::at_line(&path, &text, &e.0))?;
+                .map_err(|e| flexarm_beam::toml_at::at_line(&path, &text, &e.0))?;
             let source = firmware_params::source(&p, &names);
             refuse_foreign(&out, force, firmware_params::is_generated_source)?;
             write_atomic(&out, source.as_bytes())?;
@@ -492,7 +498,7 @@ fn main_result(cli: Cli) -> Result<()> {
                     let text = std::fs::read_to_string(p)
                         .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
                     let (arm, choice) = flexarm_sim::scenario::read_model(&text)
-                        .map_err(|e| flexarm_beam::config::at_line(p, &text, &e.0))?;
+                        .map_err(|e| flexarm_beam::toml_at::at_line(p, &text, &e.0))?;
                     Some((arm, choice.patch))
                 }
                 None => None,
@@ -578,6 +584,11 @@ fn main_result(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// Where a trajectory starts [rad].
+fn start(t: &flexarm_core::trajectory::JointTrajectory<f32>) -> flexarm_core::Vector2<f64> {
+    t.sample(0.0).q.cast()
 }
 
 /// Whether `a` and `b` name the same file (both existing, or the same path as written).

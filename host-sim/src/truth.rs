@@ -224,6 +224,12 @@ impl<const D: usize> TruthArm<D> {
         self
     }
 
+    /// `K` and `D` of the mechanics, diagonal: `ω_j²` and `2 ζ_j ω_j` in the modal entries,
+    /// zero in the joint entries [1/s², 1/s].
+    pub fn stiffness_damping(&self) -> (Coords<D>, Coords<D>) {
+        (self.k, self.d)
+    }
+
     /// The modal part `δ` of `q` (joint entries zero).
     fn modal(q: &Coords<D>) -> Coords<D> {
         let mut m = *q;

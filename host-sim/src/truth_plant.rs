@@ -36,8 +36,9 @@ use flexarm_core::params::{ArmParams, ModalData};
 use flexarm_core::{Vector2, Vector4};
 
 use crate::actuators::{FilmAmplifier, Motor, PiezoAmplifier};
-use crate::plant::{Diverged, Plant, State};
+use crate::plant::{Diverged, Plant, StableStep, State, stable_step_over_poses};
 use crate::truth::{Coords, LinkBody, TruthArm, TruthError};
+use nalgebra::DMatrix;
 
 /// Most modes of link 2 the truth plant keeps.
 pub const MAX_MODES: usize = 10;
@@ -179,10 +180,7 @@ impl TruthSpec {
             if v.is_finite() && v >= lo && v <= hi {
                 Ok(())
             } else {
-                bad(
-                    key,
-                    format!("{v} {unit} is outside {lo:e} to {hi:e} {unit}"),
-                )
+                bad(key, flexarm_beam::toml_at::outside_range(v, lo, hi, unit))
             }
         };
         range("plant.thickness", self.thickness, 1e-4, 2e-2, "m")?;
@@ -506,6 +504,26 @@ impl<const D: usize> Plant for TruthPlant<D> {
         self.film
             .step(self.film_map.dot(&q) + self.feedthrough * v_p, dt);
         Ok(())
+    }
+
+    fn stable_step(&self) -> StableStep {
+        let (k, mut c) = self.arm.stiffness_damping();
+        // The viscous friction damps the joints. The Coulomb term `F_c tanh(v / v_s)` is as
+        // stiff as `F_c / v_s` at rest but saturates: a step past that slope's limit chatters
+        // within about `v_s` of rest instead of diverging, so it sets no limit here.
+        for (j, m) in self.motors.iter().enumerate() {
+            c[j] += m.viscous;
+        }
+        stable_step_over_poses(
+            |t2| {
+                let mut q = Coords::<D>::zeros();
+                q[1] = t2;
+                let b = self.arm.inertia(&q);
+                DMatrix::from_iterator(D, D, b.iter().copied())
+            },
+            c.as_slice(),
+            k.as_slice(),
+        )
     }
 }
 
