@@ -87,6 +87,8 @@ pub fn eq7_joints<T: Real>(
 
 /// The motor torques of Eq. 7 from the state: what a plain implementation of the law computes,
 /// `(q, q̇, q_d, q̇_d, q̈_d) → (τ1, τ2)`, with one `sin`/`cos` of θ2 and the structure of `B`.
+/// Inlined, like its parts, into its callers.
+#[inline(always)]
 pub fn eq7_torques<T: Real>(
     model: &Model<T>,
     gains: &Gains<T>,

@@ -38,6 +38,10 @@ use flexarm_core::{Vector2, Vector4};
 
 include!(concat!(env!("OUT_DIR"), "/budgets.rs"));
 
+/// The like-for-like comparison with C.
+#[path = "bench/like.rs"]
+mod like;
+
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     defmt::error!("panic: {}", defmt::Display2Format(info));
@@ -58,6 +62,9 @@ struct State {
 }
 
 const N: usize = 200;
+
+/// The piezo loop's period [s] (10 kHz).
+const PIEZO_PERIOD: f32 = 1e-4;
 
 /// Min, mean and max of a set of counts.
 struct Stat {
@@ -358,7 +365,7 @@ fn controller(law: MotorLaw) -> Controller<f32> {
     Controller::paper(
         law,
         JointTrajectory::Trapezoid(Trapezoid::paper()),
-        1e-4,
+        PIEZO_PERIOD,
         1e-3,
         gain(&GAIN_1KHZ),
     )
@@ -502,6 +509,10 @@ fn main() -> ! {
         "measurement overhead: {=u32} instructions (subtracted)",
         overhead
     );
+    if !like::calibrate(overhead) {
+        defmt::error!("calibration failed: a call of an empty function does not count its return");
+        exit(EXIT_FAILURE);
+    }
 
     let sets = [("recorded", recorded()), ("random", random())];
     let model = Model::new(ArmParams::<f32>::default());
@@ -567,6 +578,8 @@ fn main() -> ! {
             &motion,
             gated(BUDGET_MOTION_CHECK_MEAN),
         );
+        // Eq. 7, the piezo step and the complete motor step as whole functions, in Rust and C.
+        ok &= like::run(set, states, overhead, &model, &gains, &base);
         // The link's receive path, a whole request frame; its cost per byte is the figure.
         let mut rx = Rx {
             queue: heapless::spsc::Queue::new(),
