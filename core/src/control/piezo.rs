@@ -372,6 +372,7 @@ impl<T: Real> PiezoLaw<T> {
                 return self.v_max;
             }
             // NaN: the first sample after a reset. The filter restarts from it with output 0.
+            crate::hint::cold();
             self.filter.y = T::zero();
             return T::zero();
         }

@@ -96,8 +96,11 @@ pub fn eq7_torques<T: Real>(
     qd: &Vector4<T>,
     target: &JointTarget<T>,
 ) -> Vector2<T> {
+    // The terms first: their sin/cos of θ2 needs only θ2, so the reference's inputs are not
+    // loaded into registers (and saved across the polynomial) before it.
+    let terms = model.terms_inline(q);
     let r = Reference::new(&gains.lambda, q, qd, target);
-    eq7_joints(&model.terms(q), qd, &gains.kp, &r)
+    eq7_joints(&terms, qd, &gains.kp, &r)
 }
 
 /// Eq. 7 from the state: `u = B q̈_r + C q̇_r + K_e q_d + D q̇_r − K_p s`.

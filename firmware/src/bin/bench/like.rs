@@ -24,18 +24,16 @@ use flexarm_core::{Vector2, Vector4};
 
 use super::{N, PIEZO_PERIOD, Stat, State, report};
 
-/// One state in the layout both sides read (`struct fc_state` in steps.c).
+/// One state in the layout both sides read (`struct fc_state` in steps.c; `JointTarget` and
+/// `Measurement` are `repr(C)`).
 #[repr(C)]
 #[derive(Clone, Copy)]
 pub struct CState {
     t: f32,
     q: Vector4<f32>,
     qd: Vector4<f32>,
-    theta_d: Vector2<f32>,
-    theta_d_dot: Vector2<f32>,
-    theta_d_ddot: Vector2<f32>,
-    y_theta: Vector2<f32>,
-    y_v_f: f32,
+    target: JointTarget<f32>,
+    y: Measurement<f32>,
 }
 
 impl CState {
@@ -44,20 +42,8 @@ impl CState {
             t,
             q: s.q,
             qd: s.qd,
-            theta_d: s.target.q,
-            theta_d_dot: s.target.qd,
-            theta_d_ddot: s.target.qdd,
-            y_theta: s.y.theta,
-            y_v_f: s.y.v_f,
-        }
-    }
-
-    #[inline(always)]
-    fn target(&self) -> JointTarget<f32> {
-        JointTarget {
-            q: self.theta_d,
-            qd: self.theta_d_dot,
-            qdd: self.theta_d_ddot,
+            target: s.target,
+            y: s.y,
         }
     }
 }
@@ -191,7 +177,7 @@ unsafe extern "C" {
 #[allow(improper_ctypes_definitions)] // called from `asm!` only, by these Rust types' layout
 #[inline(never)]
 extern "C" fn rust_eq7(m: &Model<f32>, g: &Gains<f32>, s: &CState, tau: &mut Vector2<f32>) {
-    *tau = eq7_torques(m, g, &s.q, &s.qd, &s.target());
+    *tau = eq7_torques(m, g, &s.q, &s.qd, &s.target);
 }
 
 /// The complete piezo step, `Controller::piezo_step`.
@@ -205,11 +191,7 @@ extern "C" fn rust_piezo_step(c: &mut Controller<f32>, v_f: &f32, v_a: &mut f32)
 #[allow(improper_ctypes_definitions)]
 #[inline(never)]
 extern "C" fn rust_motor_step(c: &mut Controller<f32>, s: &CState, tau: &mut Vector2<f32>) -> u32 {
-    let y = Measurement {
-        theta: s.y_theta,
-        v_f: s.y_v_f,
-    };
-    let r = c.motor_step(s.t, Some(&y));
+    let r = c.motor_step(s.t, Some(&s.y));
     *tau = r.command.tau;
     u32::from(r.command.enable)
 }
@@ -417,11 +399,11 @@ pub fn run(
         )));
         stat[1].add(counted(call_fn_piezo_step_rust(
             black_box(&mut c),
-            &s.y_v_f,
+            &s.y.v_f,
             &mut rust.piezo[i],
         )));
         let mut m = *base;
-        m.reset_observer(s.y_theta);
+        m.reset_observer(s.y.theta);
         rust_motor_step(&mut m, s, &mut rust.motor[i]);
         stat[2].add(counted(call_fn_controller_motor_rust(
             black_box(&mut m),
@@ -457,13 +439,13 @@ pub fn run(
             )));
             stat[1].add(counted((b.timed_piezo_step)(
                 black_box(&mut c),
-                &s.y_v_f,
+                &s.y.v_f,
                 &mut mine.piezo[i],
             )));
             let mut m = template;
             // SAFETY: as above.
             unsafe {
-                (b.reset)(&mut m, &s.y_theta);
+                (b.reset)(&mut m, &s.y.theta);
                 (b.motor_step)(&mut m, s, &mut mine.motor[i]);
             }
             stat[2].add(counted((b.timed_motor_step)(
