@@ -379,6 +379,9 @@ impl<T: Real> Controller<T> {
             return None;
         }
         self.take(y)?;
+        // The trajectory's sample before the terms of B(q̂): its branches then hold none of
+        // them live.
+        let target = self.trajectory.sample(t);
         let (q_hat, qd_hat) = self.observer.state();
         // One set of B(q) terms serves the law and the observer's prediction when the law runs
         // on the estimate.
@@ -390,7 +393,6 @@ impl<T: Real> Controller<T> {
             self.trip(Fault::Singular);
             return None;
         }
-        let target = self.trajectory.sample(t);
         let out = match full {
             Some((q, qd)) => self.motor.step(t, q, qd, &target),
             None => self.motor.law_with(&terms_hat, t, &q_hat, &qd_hat, &target),

@@ -444,10 +444,7 @@ impl<T: Real> Cubic<T> {
 }
 
 /// A joint trajectory the controllers can follow (an enum, so the firmware needs no `dyn`).
-/// Its variant is a byte of its own (`repr(u8)`): the motor step's dispatch loads it and jumps,
-/// with no decoding of a niche in a variant's fields.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(u8)]
 pub enum JointTrajectory<T> {
     /// Hold still at the given angles [rad].
     Hold(Vector2<T>),
