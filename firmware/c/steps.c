@@ -57,7 +57,7 @@ struct fc_params {
     uint32_t stale_limit, robust;
 };
 
-/* One state of the bench (firmware/src/bin/bench.rs: `State`, repr(C)). */
+/* One state of the bench (firmware/src/bin/bench/like.rs: `CState`, repr(C)). */
 struct fc_state {
     float t;
     float q[4], qd[4];
@@ -214,7 +214,7 @@ static void trip(struct fc_ctrl *c, uint8_t fault) {
         c->fault = fault;
 }
 
-/* The terms of B(q) at q, and with `with_inverse` S^-1 (0 if S is not positive definite). */
+/* The terms of B(q) and dB/dq at one configuration, and S^-1 (core/src/model.rs: `Terms`). */
 struct terms {
     float b11, b12, b22, b13, b14, dh, d13, d14;
     float si11, si12, si22;
@@ -374,7 +374,7 @@ int NAME(flexarm_c_motor_step)(struct fc_ctrl *c, const struct fc_state *s, floa
     struct terms t;
     terms(c, q, &t);
     if (!schur_inverse(c, &t)) {
-        /* The law would run on (Rust: with no robust term) and the prediction trip this. */
+        /* What the prediction would trip after the law (the Rust trips it here too). */
         trip(c, SINGULAR);
         return safe(tau_out);
     }
