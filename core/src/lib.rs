@@ -27,6 +27,7 @@ pub mod controller;
 pub mod drive;
 pub mod fastmath;
 pub mod fault;
+mod hint;
 pub mod indices;
 pub mod kinematics;
 pub mod limits;

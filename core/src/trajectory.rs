@@ -53,8 +53,10 @@ impl core::fmt::Display for TrajectoryError {
     }
 }
 
-/// One sample of the desired joint motion.
+/// One sample of the desired joint motion. Laid out as written (`repr(C)`: the bench's C
+/// comparison reads it).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct JointTarget<T> {
     /// `θ_d` [rad].
     pub q: Vector2<T>,
@@ -71,6 +73,17 @@ impl<T: Real> JointTarget<T> {
             q,
             qd: Vector2::zeros(),
             qdd: Vector2::zeros(),
+        }
+    }
+
+    /// The same sample, value by value (see [`JointTrajectory::sample`]).
+    #[inline(always)]
+    fn rebuilt(self) -> Self {
+        let v = |x: Vector2<T>| Vector2::new(x.x, x.y);
+        Self {
+            q: v(self.q),
+            qd: v(self.qd),
+            qdd: v(self.qdd),
         }
     }
 
@@ -452,8 +465,11 @@ impl<T: Real> JointTrajectory<T> {
         match self {
             Self::Hold(q) => JointTarget::rest(*q),
             Self::Trapezoid(tr) => tr.sample(t),
-            Self::Circle(c) => c.sample(t),
-            Self::Cubic(c) => c.sample(t),
+            // Rebuilt from its values: the sample of a called function then reaches the caller
+            // in registers like the others, not through one stack slot that every arm writes
+            // and the motor law reads back.
+            Self::Circle(c) => c.sample(t).rebuilt(),
+            Self::Cubic(c) => c.sample(t).rebuilt(),
         }
     }
 }

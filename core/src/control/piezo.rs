@@ -379,18 +379,21 @@ impl<T: Real> PiezoLaw<T> {
     #[inline(always)]
     pub fn step_finite(&mut self, v_f: T) -> T {
         let v = self.filter.advance(v_f);
-        // Two comparisons on every path but NaN's, as many as the symmetric law's `|v| ≤ v_max`
-        // took with its `abs`.
-        #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
-        if !(v <= self.v_max) {
-            if v > self.v_max {
-                return self.v_max;
-            }
-            // NaN: the first sample after a reset. The filter restarts from it with output 0.
-            self.filter.y = T::zero();
-            return T::zero();
+        // The window's top, then its bottom: one comparison for the top, and the bottom's one
+        // comparison sorts out the rest (below, inside, or unordered: NaN).
+        if v > self.v_max {
+            return self.v_max;
         }
-        if v < self.v_min { self.v_min } else { v }
+        if v >= self.v_min {
+            return v;
+        }
+        if v < self.v_min {
+            return self.v_min;
+        }
+        // NaN: the first sample after a reset. The filter restarts from it with output 0.
+        crate::hint::cold();
+        self.filter.y = T::zero();
+        T::zero()
     }
 
     /// Forgets the filter's history.
