@@ -27,7 +27,7 @@ fn main() {
 /// file `cargo sim firmware-params` wrote is taken; its inner doc comments become plain
 /// comments (`include!` takes items only).
 fn generated() {
-    const FIRST_LINE: &str = "//! The arm model, piezo patch and observer gains the firmware runs.";
+    const FIRST_LINE: &str = "//! The arm model, piezo patch and observer gains the firmware runs, in each board's configuration.";
     println!("cargo:rerun-if-env-changed=FLEXARM_PARAMS");
     let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it")).join("..");
     let (path, name) = match env::var_os("FLEXARM_PARAMS") {
