@@ -439,7 +439,7 @@ mod app {
         let ok = cx
             .shared
             .board
-            .lock(|b| crate::verdict::judge(&b.run, fault, b.arm.enabled()));
+            .lock(|b| crate::verdict::judge(&b.run, fault, b.sim.arm.enabled()));
         exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
     }
 

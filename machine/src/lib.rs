@@ -11,7 +11,8 @@
 //! - [`period`]: the phases of a piezo and a motor period, each over the resources it needs;
 //! - [`telemetry`]: the motor loop's record and the stream's channels;
 //! - [`session`]: the command link's session and its conversions between the link's
-//!   messages and the core's types.
+//!   messages and the core's types;
+//! - [`simulated`]: the QEMU board's simulated arm, which the host's rig runs too.
 //!
 //! Units SI and frames as in `flexarm_core`; ticks in motor periods.
 #![no_std]
@@ -20,6 +21,7 @@ pub mod board;
 pub mod config;
 pub mod period;
 pub mod session;
+pub mod simulated;
 pub mod telemetry;
 
 pub use board::Board;
