@@ -191,19 +191,14 @@ mod app {
         }
 
         #[cfg(feature = "qemu")]
-        let board = {
-            use flexarm_core::simarm::{SensorModel, SimArm};
-            // The simulated arm plays the physical arm: the paper's, with the firmware's patch
-            // on it, whatever model the controller runs (the paper's by default, or one
-            // identified on this arm, docs/identification.md).
-            let sim = SimArm::new(
-                flexarm_core::model::Model::new(flexarm_core::params::ArmParams::default()),
-                config::qemu_patch(),
-                flexarm_core::Vector4::zeros(),
-                SensorModel::default(),
-            );
-            BoardImpl::new(sim, cfg.piezo_period())
-        };
+        // The simulated arm plays the physical arm: the paper's, with the firmware's patch on
+        // it, whatever model the controller runs (the paper's by default, or one identified on
+        // this arm, docs/identification.md).
+        let board = BoardImpl::new(flexarm_machine::simulated::SimulatedArm::paper(
+            config::qemu_patch(),
+            flexarm_core::Vector4::zeros(),
+            cfg.piezo_period(),
+        ));
         #[cfg(feature = "hw")]
         let board = BoardImpl::new(
             dp.GPIOA, dp.GPIOB, dp.GPIOC, dp.TIM1, dp.TIM8, dp.TIM12, dp.ADC1, dp.DAC, &dp.RCC,

@@ -121,6 +121,12 @@ impl FirmwareParams {
     }
 }
 
+/// The configuration `board` boots with when the firmware is built from the paper's fragment
+/// (the default `firmware/piezo.toml`): the generated file's `HARDWARE` or `QEMU`, bit for bit.
+pub fn paper_board(board: Board) -> Result<BoardConfig, Error> {
+    Ok(design(&paper_fragment()?)?.board(board))
+}
+
 /// Reads `fragment_text`, checks that the firmware can run it and designs the observer gains.
 pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
     let (arm, choice) =

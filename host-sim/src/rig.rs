@@ -89,22 +89,26 @@ impl<B: Board> Rig<B> {
         }
     }
 
-    /// One piezo period: the film voltage, the piezo step, the amplifier command, the board's
-    /// tick. Returns the command [V].
-    pub fn piezo_tick(&mut self) -> f32 {
-        let v_f = self.board.film_voltage();
-        let v_a = period::piezo_tick(&mut self.control, v_f);
-        period::piezo_out(&mut self.board, v_a);
-        v_a
+    /// One whole motor period (`flexarm_machine::period::board_period`):
+    /// `cfg.motor_divider` piezo periods, then the motor period, then the fault recorder and the
+    /// telemetry records (queued as the firmware queues them: a full queue drops the record).
+    pub fn period(&mut self) -> Period {
+        self.period_with(self.cfg.motor_divider, |_, _| {})
     }
 
-    /// One motor period: sense, the motor step, actuate, the fault recorder, the telemetry
-    /// records (queued as the firmware queues them: a full queue drops the record).
-    pub fn motor_tick(&mut self) -> Period {
-        let sensed = period::sense(&mut self.board);
-        let p = period::motor_step(&mut self.motor, &mut self.control, &mut self.drive, &sensed);
+    /// [`Self::period`] after `piezo` piezo periods (a board whose piezo timer ran late or early,
+    /// recorded), `before(control, i)` before the `i`-th (a study's patch excitation: the
+    /// link's bias set between them).
+    pub fn period_with(&mut self, piezo: u32, before: impl FnMut(&mut Control, u32)) -> Period {
+        let p = period::board_period(
+            &mut self.board,
+            &mut self.control,
+            &mut self.drive,
+            &mut self.motor,
+            piezo,
+            before,
+        );
         let t = self.clock.local_time(p.tick);
-        period::actuate(&mut self.board, &p.command);
         self.board.motor_period(t);
         if let Some(s) = period::recorded(&p, self.cfg.record_every) {
             self.recorder.record(&s, p.fault);
@@ -118,20 +122,6 @@ impl<B: Board> Rig<B> {
             }
         });
         p
-    }
-
-    /// One whole motor period: `cfg.motor_divider` piezo periods, then the motor period.
-    pub fn period(&mut self) -> Period {
-        self.periods_with(self.cfg.motor_divider)
-    }
-
-    /// A motor period after `piezo` piezo periods (a board whose piezo timer ran late or
-    /// early: the QEMU board's, recorded).
-    pub fn periods_with(&mut self, piezo: u32) -> Period {
-        for _ in 0..piezo {
-            self.piezo_tick();
-        }
-        self.motor_tick()
     }
 
     /// The tick of the next motor period.

@@ -916,18 +916,16 @@ fn run_firmware(
     let piezo_dt = motor_dt / f64::from(n);
     for k in 0..periods {
         let t = k as f64 * motor_dt;
-        for i in 0..n {
-            if let Some(b) = bias {
-                rig.control.piezo_bias = b(t - f64::from(n - 1 - i) * piezo_dt) as f32;
-            }
-            rig.piezo_tick();
-        }
         let (i, seg, local) = segment_at(segments, t);
         if i != current {
             current = i;
             rig.follow(seg, local as f32).map_err(refused)?;
         }
-        let p = rig.motor_tick();
+        let p = rig.period_with(n, |c, i| {
+            if let Some(b) = bias {
+                c.piezo_bias = b(t - f64::from(n - 1 - i) * piezo_dt) as f32;
+            }
+        });
         if rig.board.diverged.is_some() {
             return Err(SimError::Plant { t });
         }

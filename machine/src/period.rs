@@ -17,6 +17,9 @@
 //! 3. [`actuate`] on the board: torques and the enable line;
 //! 4. [`recorded`] and the fault recorder;
 //! 5. [`MotorLoop::sample`]: the telemetry records of the period.
+//!
+//! [`board_period`] is the whole of it between two motor periods, for a caller that owns every
+//! resource (the host's rig, the firmware's benchmark).
 
 use flexarm_core::controller::Controller;
 use flexarm_core::drive::{Drive, Mode};
@@ -235,6 +238,32 @@ pub fn motor_step(m: &mut MotorLoop, c: &mut Control, d: &mut Drive<f32>, s: &Se
         print,
         stream,
     }
+}
+
+/// One whole motor period on `board` as the firmware's tasks run it: `piezo` piezo periods
+/// ([`piezo_tick`], [`piezo_out`]; `before(control, i)` runs before the `i`-th, for a host that
+/// sets the link's values between them), then the motor period ([`sense`], [`motor_step`],
+/// [`actuate`]). The fault recorder's sample and the telemetry are the caller's ([`recorded`],
+/// [`MotorLoop::sample`]).
+#[inline]
+pub fn board_period(
+    board: &mut impl Board,
+    control: &mut Control,
+    drive: &mut Drive<f32>,
+    motor: &mut MotorLoop,
+    piezo: u32,
+    mut before: impl FnMut(&mut Control, u32),
+) -> Period {
+    for i in 0..piezo {
+        before(control, i);
+        let v_f = board.film_voltage();
+        let v_a = piezo_tick(control, v_f);
+        piezo_out(board, v_a);
+    }
+    let s = sense(board);
+    let p = motor_step(motor, control, drive, &s);
+    actuate(board, &p.command);
+    p
 }
 
 /// The motor loop's outputs: the torques and the enable line.

@@ -6,8 +6,11 @@
 //!
 //! Units SI; the plant's state in the core's coordinates `q = (θ1, θ2, δ1, δ2)`.
 
-use flexarm_core::Vector2;
-use flexarm_core::simarm::SimArm;
+use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_core::model::Model;
+use flexarm_core::params::ArmParams;
+use flexarm_core::simarm::{SensorModel, SimArm};
+use flexarm_core::{Vector2, Vector4};
 
 use crate::board::Board;
 
@@ -33,6 +36,15 @@ impl SimulatedArm {
             dt,
             diverged: false,
         }
+    }
+
+    /// The QEMU board's arm: the paper's (`ArmParams::default()`) whatever model the controller
+    /// runs, carrying `patch`, at rest at `q`, with the core's sensors (`SensorModel::default()`),
+    /// stepped every `dt` [s], amplifiers off.
+    #[inline]
+    pub fn paper(patch: PiezoPatch<f32>, q: Vector4<f32>, dt: f32) -> Self {
+        let model = Model::new(ArmParams::default());
+        Self::new(SimArm::new(model, patch, q, SensorModel::default()), dt)
     }
 
     /// One plant step of [`Self::dt`]. With the amplifiers off the joints brake, as geared

@@ -9,7 +9,6 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
 
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use flexarm_core::Vector2;
-use flexarm_core::simarm::SimArm;
 use flexarm_machine::simulated::SimulatedArm;
 
 use super::{Board, wiring};
@@ -143,10 +142,10 @@ pub struct SimBoard {
 }
 
 impl SimBoard {
-    /// A board around `arm`, stepped every `dt` [s].
-    pub fn new(arm: SimArm<f32>, dt: f32) -> Self {
+    /// A board around `sim`.
+    pub fn new(sim: SimulatedArm) -> Self {
         Self {
-            sim: SimulatedArm::new(arm, dt),
+            sim,
             enable: SimPin(false),
             fault_n: SimPin(true),
             run: crate::verdict::RunCheck::default(),

@@ -138,23 +138,22 @@ fn trapezoid(target: [f32; 2], move_time: f32, ramp_time: f32) -> Command {
 }
 
 /// The largest |θ − θ_d| of `traj` from rest at its start on the host, with the piezo gain
-/// `k_c` [s]: the QEMU board's rates (motor 100 Hz, piezo 1 kHz, plant step 1 ms), its sensors
-/// (16384-count encoders, 12-bit film ADC, no noise or delay) and the firmware's controller with
-/// its observer. A motion check that trips on the host is an error: the firmware would fault.
+/// `k_c` [s]: the QEMU board's firmware (the generated `QEMU` configuration: motor 100 Hz, piezo
+/// 1 kHz, its controller, observer and drive) on the host's rig, on the controller's model in
+/// `f64` (plant step 1 ms) through the QEMU board's sensors (16384-count encoders, 12-bit film
+/// ADC, no noise or delay). A motion check that trips on the host is an error: the firmware
+/// would fault.
 fn simulated_error(traj: &JointTrajectory<f32>, k_c: f32) -> Result<f64, String> {
     let move_time = match traj {
-        JointTrajectory::Trapezoid(t) => t.profile.duration(),
-        JointTrajectory::Circle(c) => c.profile.duration(),
-        JointTrajectory::Cubic(c) => c.duration,
         JointTrajectory::Hold(_) => 1.0,
+        moving => moving.duration(),
     };
+    let mut qemu = flexarm_tests::firmware(flexarm_link::msg::Board::Qemu);
+    qemu.piezo.k_c = k_c;
     let cfg = SimConfig {
-        piezo: Some(flexarm_core::control::piezo::PiezoGains {
-            k_c,
-            ..Default::default()
-        }),
         duration: f64::from(move_time) + 1.0,
         tail_window: 1.0,
+        machine: Some(qemu),
         ..SimConfig::board(100.0, 1000.0)
     };
     let (s, _) = simulate(&cfg, traj, false).map_err(|e| e.to_string())?;
@@ -233,103 +232,62 @@ const PATH: [(f32, f32, f32); 12] = [
     (0.1, 0.0, 0.2),
 ];
 
-/// The largest |θ̂ − θ_d| of [`PATH`] from rest at (0, 0) in the core's closed loop on the host, as
-/// the QEMU board runs it: the paper's controller with the 100 Hz observer and gains
-/// (`Gains::default_for(100)`), `k_c` = 3.162 s,
-/// the drive, and the core's simulated arm with the QEMU board's sensors, stepped every 1 ms.
+/// The largest |θ̂ − θ_d| of [`PATH`] from rest at (0, 0) on the host, as the QEMU board runs it:
+/// its firmware (the generated `QEMU` configuration) on the host's rig (`flexarm_sim::rig`) with
+/// the QEMU board's simulated arm, given the session's own commands (`k_c` = 3.162 s, arm, the
+/// waypoints in chunks, the move).
 fn path_simulation() -> Result<f32, String> {
-    use flexarm_core::control::motor::MotorLaw;
-    use flexarm_core::controller::Controller;
-    use flexarm_core::drive::{Drive, MoveLimits, MoveRequest};
-    use flexarm_core::observer::Measurement;
-    use flexarm_core::observer_gains::{GAIN_100HZ, gain};
-    use flexarm_core::simarm::{SensorModel, SimArm};
-    use flexarm_core::time::Ticks;
-    let mut ctrl = Controller::paper(
-        MotorLaw::Tracking,
-        JointTrajectory::Hold(nalgebra::Vector2::zeros()),
-        1e-3,
-        1e-2,
-        gain(&GAIN_100HZ),
+    let mut rig = flexarm_tests::rig(
+        flexarm_tests::firmware(flexarm_link::msg::Board::Qemu),
+        [0.0, 0.0],
     );
-    // The QEMU board's gains for its 100 Hz loop.
-    ctrl.motor.gains = flexarm_core::params::Gains::default_for(100);
-    let mut tuning = flexarm_core::tuning::Tuning {
-        piezo: flexarm_core::control::piezo::PiezoGains::default(),
-        piezo_period: 1e-3,
-        tau_ceiling: ctrl.motor.limits.tau_max,
-        v_a_ceiling: ctrl.motor.limits.v_a_max,
+    let ask = |rig: &mut flexarm_sim::rig::Rig<_>, command: Command| match rig.answer(command) {
+        Reply::Done => Ok(()),
+        r => Err(format!("the host's rig refused the path: {r:?}")),
     };
-    tuning
-        .set(
-            &mut ctrl,
-            flexarm_core::drive::Mode::Disarmed,
-            flexarm_core::tuning::Tunable::Kc,
-            3.162,
-        )
-        .map_err(|e| format!("{e:?}"))?;
-    let mut arm = SimArm::new(
-        ctrl.motor.model,
-        ctrl.patch,
-        nalgebra::Vector4::zeros(),
-        SensorModel::default(),
-    );
-    ctrl.reset_observer(arm.encoders());
-    let mut drive = Drive::new(&mut ctrl, 100, Ticks(0), MoveLimits::default());
-    let mut now = Ticks(0);
-    drive.arm(&mut ctrl, now).map_err(|e| format!("{e:?}"))?;
-    for (k, w) in path_waypoints().iter().enumerate() {
-        drive
-            .load_waypoints(&ctrl, k, &[*w])
-            .map_err(|e| format!("{e:?}"))?;
+    ask(&mut rig, Command::Set(Param::Kc, 3.162))?;
+    ask(&mut rig, Command::Arm)?;
+    for (k, chunk) in PATH
+        .chunks(flexarm_link::msg::WAYPOINTS_PER_CHUNK)
+        .enumerate()
+    {
+        ask(
+            &mut rig,
+            waypoints_chunk((k * flexarm_link::msg::WAYPOINTS_PER_CHUNK) as u16, chunk),
+        )?;
     }
-    let total = drive
-        .start(&mut ctrl, now, &MoveRequest::Waypoints { count: 12 })
-        .map_err(|e| format!("{e:?}"))?;
+    ask(
+        &mut rig,
+        Command::Move(Move::Waypoints {
+            count: PATH.len() as u16,
+        }),
+    )?;
+    let total: f32 = PATH.iter().map(|p| p.2).sum();
     let mut worst = 0.0f32;
     for _ in 0..(total * 100.0) as usize + 50 {
-        for _ in 0..10 {
-            let v = ctrl.piezo_step(arm.film_voltage());
-            arm.set_piezo(v);
-            arm.step(1e-3);
-        }
-        let y = Measurement {
-            theta: arm.encoders(),
-            v_f: arm.film_voltage(),
-        };
-        let report = drive.step(&mut ctrl, now, Some(&y));
-        arm.set_torques(report.command.tau);
-        arm.set_enable(report.command.enable);
-        if let Some(l) = report.law {
-            worst = worst.max(l.error.x.abs().max(l.error.y.abs()));
-        }
-        now = now.next();
+        let p = rig.period();
+        worst = worst.max(p.error.abs().max());
     }
     Ok(worst)
 }
 
-/// [`PATH`] in the core's type.
-fn path_waypoints() -> Vec<flexarm_core::drive::Waypoint<f32>> {
-    PATH.iter()
-        .map(|&(a, b, dt)| flexarm_core::drive::Waypoint {
-            theta: nalgebra::Vector2::new(a, b),
-            dt,
-        })
-        .collect()
-}
-
-/// A waypoint path over the link, from (0, 0): uploaded in two chunks (a chunk that leaves a
-/// gap and a move that names more waypoints than were uploaded are refused), then run and
-/// tracked within three times the host's run of the same path in the core's closed loop (4.5 s:
-/// at least 40 telemetry frames at the QEMU board's 10 records a second).
-fn waypoints(link: &mut Link) -> Result<(), String> {
-    let chunk = |first: u16, pts: &[(f32, f32, f32)]| Command::Waypoints {
+/// A chunk of waypoints of the link from `first`.
+fn waypoints_chunk(first: u16, pts: &[(f32, f32, f32)]) -> Command {
+    Command::Waypoints {
         first,
         points: pts
             .iter()
             .map(|&(a, b, dt)| Waypoint { theta: [a, b], dt })
             .collect(),
-    };
+    }
+}
+
+/// A waypoint path over the link, from (0, 0): uploaded in two chunks (a chunk that leaves a
+/// gap and a move that names more waypoints than were uploaded are refused), then run and
+/// tracked within three times the host's run of the same path on the host's rig (4.5 s:
+/// at least 40 telemetry frames at the QEMU board's 10 records a second).
+fn waypoints(link: &mut Link) -> Result<(), String> {
+    let chunk = waypoints_chunk;
     let go = Command::Move(Move::Waypoints { count: 12 });
     let r = link.ask(chunk(1, &PATH[..8]))?;
     check(
