@@ -1,6 +1,6 @@
 //! The QEMU board: the arm simulated inside the firmware (`flexarm_machine::simulated`: the
 //! core's model in `f32`, RK4, quantized encoders and film ADC, brakes while disabled), stepped
-//! by the firmware's clock, with the wiring of `super::wiring` and the test builds' injections.
+//! once per piezo period, with the wiring of `super::wiring` and the test builds' injections.
 //! Its enable and fault lines are in-memory `embedded-hal` pins, so the same pin logic runs as on
 //! hardware.
 
@@ -116,11 +116,6 @@ impl InputPin for SimPin {
     }
 }
 
-/// Clock counts in one piezo period (`crate::clock`: 1 ns each under QEMU).
-const PIEZO_PERIOD_COUNTS: u32 = crate::clock::HZ / crate::config::PIEZO_HZ;
-/// The most piezo periods one tick catches up (see [`SimBoard::tick`]).
-const MAX_CATCH_UP: u32 = 20;
-
 /// The simulated arm and its lines.
 pub struct SimBoard {
     /// The plant, its sensors and its step.
@@ -135,10 +130,6 @@ pub struct SimBoard {
     /// Joint 2's reading once frozen (`inject-frozen-encoder`).
     #[cfg_attr(not(feature = "inject-frozen-encoder"), allow(dead_code))]
     frozen: Option<f32>,
-    /// The clock at the last tick.
-    last_tick: Option<u32>,
-    /// Clock counts passed and not yet stepped (less than a piezo period after a tick).
-    owed: u32,
 }
 
 impl SimBoard {
@@ -151,8 +142,6 @@ impl SimBoard {
             run: crate::verdict::RunCheck::default(),
             steps: 0,
             frozen: None,
-            last_tick: None,
-            owed: 0,
         }
     }
 }
@@ -228,25 +217,10 @@ impl Board for SimBoard {
     fn motor_period(&mut self, t: f32) {
         self.run.observe(&self.sim.arm, self.sim.diverged, t);
     }
-    /// The plant follows the firmware's clock (`crate::clock`, QEMU's virtual time): one step
-    /// per piezo period of it that has passed, the remainder carried to the next tick. QEMU's
-    /// piezo timer comes 3 % late (docs/firmware.md: 970 interrupts per 100 motor periods), so
-    /// one step per interrupt left the arm 3 % behind the motor loop's time, which the modes
-    /// and inertias identified on it showed (docs/identification.md); and QEMU's real-time
-    /// mode (`-icount sleep=on`: `scripts/qemu-serve`, the link's flood session) drops timer
-    /// interrupts under the host's load, which left the arm standing still for up to half of
-    /// the board's time. At most [`MAX_CATCH_UP`] steps a tick.
+    /// One plant step per piezo period. The board's motor period is ten of its piezo periods
+    /// (the piezo loop starts it, `crate::app::piezo_loop`), so the plant, the piezo loop and
+    /// the motor loop keep one time: the plant's.
     fn tick(&mut self) {
-        let now = crate::clock::now();
-        let elapsed = self
-            .last_tick
-            .map_or(PIEZO_PERIOD_COUNTS, |last| now.wrapping_sub(last));
-        self.last_tick = Some(now);
-        let owed = self.owed.saturating_add(elapsed);
-        let periods = owed / PIEZO_PERIOD_COUNTS;
-        self.owed = owed % PIEZO_PERIOD_COUNTS;
-        for _ in 0..periods.min(MAX_CATCH_UP) {
-            self.step_plant();
-        }
+        self.step_plant();
     }
 }

@@ -6,7 +6,8 @@
 //! corrupted frame and an oversized frame on the line, after which a ping is still answered; a
 //! move refused while disarmed; arm; moves refused whole with their reasons (out of reach, too
 //! fast); a trapezoid move, its end awaited, and its tracking error within three times what the
-//! host simulation of the same move shows; parameters read, written and refused at rest; a long
+//! host simulation of the same move shows; the session so far replayed on the host's rig to the
+//! bit (`replay`); parameters read, written and refused at rest; a long
 //! move (another move and a parameter change refused while it runs) stopped on its way, which
 //! decelerates and holds short of its target; a move stopped by the link watchdog while the host
 //! is silent; the paper's circle, refused where the tip is not on it, then run from its start
@@ -212,6 +213,87 @@ fn circle(link: &mut Link) -> Result<(), String> {
         format!(
             "max |θ − θ_d| {max_error:.2e} rad over {} frames; host {host:.2e} rad, bound 3× = {bound:.2e}",
             during.len()
+        ),
+    )
+}
+
+/// The values of a frame the replay compares: errors, θ̂, δ̂, τ, V_a, V_f (not the loads).
+const REPLAYED: usize = 10;
+
+/// Bit-identical replay: the session's frames from its subscription to the end of its first
+/// move, every motor period of them, reproduced by the host's rig (`flexarm_sim::rig`) running the
+/// QEMU board's firmware (its generated configuration, whose hash must be the handshake's
+/// `params_hash`) on the QEMU board's simulated arm, both from boot: every compared value
+/// (`REPLAYED`) of every frame equal to the bit. The commands that acted before the move's end:
+/// arm and the move (the subscription, the refused moves, the ping and the status acted on
+/// nothing). The arm rests exactly at its boot pose until the move (every value of every frame
+/// before it 0, checked), so the tick of the arm does not matter, and the move's tick is the
+/// first frame with a torque (its first period's feed-forward; its reference still the held
+/// pose).
+fn replay(link: &Link, params_hash: u32, mv: Command) -> Result<(), String> {
+    let cfg = flexarm_tests::firmware(Board::Qemu);
+    check(
+        cfg.hash() == params_hash,
+        "the replay's configuration is the firmware's",
+        format!("{:08x}", cfg.hash()),
+    )?;
+    let frames = &link.telemetry;
+    let moved = frames
+        .iter()
+        .position(|f| f.values[6] != 0.0 || f.values[7] != 0.0)
+        .ok_or("no torque in the session's first move")?;
+    let at_rest = frames[..moved]
+        .iter()
+        .all(|f| f.values[..REPLAYED].iter().all(|v| *v == 0.0));
+    let (first, last, begin) = (
+        frames[0].tick,
+        frames[frames.len() - 1].tick,
+        frames[moved].tick,
+    );
+    let contiguous = frames.windows(2).all(|w| w[1].tick == w[0].tick + 1);
+    check(
+        at_rest && contiguous,
+        "the recording: every period from the subscription, the arm at rest until the move",
+        format!("ticks {first}–{last}, the move from {begin}"),
+    )?;
+    let mut rig = flexarm_tests::rig(cfg, [0.0, 0.0]);
+    for command in [
+        Command::Subscribe {
+            decimation: 1,
+            channels: Channels(CHANNELS),
+        },
+        Command::Arm,
+    ] {
+        rig.answer(command);
+    }
+    let mut replayed = std::collections::BTreeMap::new();
+    while rig.now().0 <= last {
+        if rig.now().0 == begin {
+            let r = rig.answer(mv.clone());
+            if r != Reply::Done {
+                return Err(format!("the replay's move: {r:?}"));
+            }
+        }
+        rig.period();
+        for f in rig.take().into_iter().filter_map(|(_, f)| f) {
+            replayed.insert(f.tick, f.values);
+        }
+    }
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let differ = frames
+        .iter()
+        .filter(|f| {
+            replayed
+                .get(&f.tick)
+                .is_none_or(|v| bits(&v[..REPLAYED]) != bits(&f.values[..REPLAYED]))
+        })
+        .count();
+    check(
+        differ == 0,
+        "the host's rig replays the firmware's first move bit for bit (errors, estimates, torques, piezo and film voltages)",
+        format!(
+            "{} frames (ticks {first}–{last}, the move from {begin}), {differ} differ",
+            frames.len()
         ),
     )
 }
@@ -833,6 +915,8 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
             during.len()
         ),
     )?;
+
+    replay(&link, h.params_hash, trapezoid(target, move_time, ramp))?;
 
     // Parameters at rest: read, written, read back; refused out of range or unknown.
     let k_c = link.ask(Command::Get(Param::Kc))?;
