@@ -92,6 +92,10 @@ enum Action {
         /// Replace files of the same name that no flexarm command wrote.
         #[arg(long)]
         force: bool,
+        /// The model file the firmware was built from (`cargo sim firmware-params`'s source),
+        /// which the recording carries for `compare`.
+        #[arg(long, default_value = "firmware/piezo.toml")]
+        model: PathBuf,
         /// The output folder.
         out: PathBuf,
         /// A move to start once the recording runs.
@@ -380,6 +384,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             seconds,
             decimation,
             force,
+            model,
             out,
             then,
         } => {
@@ -393,6 +398,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 &mut c,
                 seconds,
                 decimation,
+                &model,
                 mv.map(|(_, m)| m),
                 &mut |c: &mut Client| match mv {
                     Some((what, m)) => {

@@ -23,7 +23,7 @@ use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::JointTrajectory;
 use flexarm_core::tuning::Tuning;
 use flexarm_core::{Vector2, Vector4};
-use flexarm_link::msg::Board;
+use flexarm_link::msg::{Board, Param};
 
 /// An observer gain table: `L` (8×3, row-major; rows `(q, q̇)`, columns `(θ1, θ2, V_f)`).
 pub type GainTable = [[f32; 3]; 8];
@@ -220,6 +220,50 @@ impl BoardConfig {
     #[inline(always)]
     pub const fn amplifier_monitor(&self) -> AmplifierMonitor {
         AmplifierMonitor::new(self.amplifier_settle, self.amplifier_debounce)
+    }
+
+    /// The value the link's parameter `p` boots with on this board (`Get` before any `Set`),
+    /// or `None` for an index it does not have and for the piezo bias (not a configuration's:
+    /// 0 at boot).
+    pub fn param(&self, p: Param) -> Option<f32> {
+        let (g, l) = (&self.gains, &self.limits);
+        let i = |i: u8| usize::from(i);
+        match p {
+            Param::Kp(k) => g.kp.get(i(k)).copied(),
+            Param::Lambda(k) => g.lambda.get(i(k)).copied(),
+            Param::DDelta(k) => g.d_delta.get(i(k)).copied(),
+            Param::Kc => Some(self.piezo.k_c),
+            Param::CutoffHz => Some(self.piezo.cutoff_hz),
+            Param::TauMax(k) => l.tau_max.get(i(k)).copied(),
+            Param::VaMax => Some(l.v_a_max),
+            Param::VaMin => Some(l.v_a_min),
+            Param::LinkTimeout => Some(self.link_timeout_s as f32),
+            Param::VaBias => None,
+        }
+    }
+
+    /// Sets the link's parameter `p` to `value` in this configuration (as a `Set` at boot
+    /// would, without its validation: the controller built from it latches `InvalidConfig` on
+    /// a bad value); `false` for an index it does not have and for the piezo bias.
+    pub fn set_param(&mut self, p: Param, value: f32) -> bool {
+        let (g, l) = (&mut self.gains, &mut self.limits);
+        let i = |i: u8| usize::from(i);
+        let slot = match p {
+            Param::Kp(k) => g.kp.get_mut(i(k)),
+            Param::Lambda(k) => g.lambda.get_mut(i(k)),
+            Param::DDelta(k) => g.d_delta.get_mut(i(k)),
+            Param::Kc => Some(&mut self.piezo.k_c),
+            Param::CutoffHz => Some(&mut self.piezo.cutoff_hz),
+            Param::TauMax(k) => l.tau_max.get_mut(i(k)),
+            Param::VaMax => Some(&mut l.v_a_max),
+            Param::VaMin => Some(&mut l.v_a_min),
+            Param::LinkTimeout => {
+                self.link_timeout_s = value as u32;
+                return true;
+            }
+            Param::VaBias => None,
+        };
+        slot.map(|s| *s = value).is_some()
     }
 
     /// Every number of the configuration, in a fixed order, as `u32` words (an `f32` as its
