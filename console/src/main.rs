@@ -270,9 +270,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
     if let Action::Get { name } = &cli.command
         && name == "list"
     {
-        for (n, _, unit) in params::NAMES {
-            println!("{n} [{unit}]");
-        }
+        print!("{}", params::list());
         return Ok(());
     }
     // Offline: a recording against the simulator.

@@ -96,42 +96,45 @@ pub struct Recording {
     pub info: Info,
 }
 
-/// A telemetry frame of every channel ([`Channels::ALL`]) read by name: what `record`, `live`,
-/// `bringup` and `identify` take from the stream. A value the frame lacks reads NaN.
+/// A telemetry frame's values read by name (`Telemetry::value`: the frame's own channels say
+/// where each is, so a frame of any subset reads right): what `record`, `live`, `bringup` and
+/// `identify` take from the stream. A value the frame lacks, or of no frame, reads NaN.
 #[derive(Clone, Copy)]
-pub struct Values<'a>(pub &'a [f32]);
+pub struct Values<'a>(pub Option<&'a Telemetry>);
 
 impl Values<'_> {
-    fn at(&self, i: usize) -> f64 {
-        self.0.get(i).map_or(f64::NAN, |&v| f64::from(v))
+    fn at(&self, bit: u16, j: usize) -> f64 {
+        self.0
+            .and_then(|f| f.value(bit, j))
+            .map_or(f64::NAN, f64::from)
     }
     /// Tracking error `θ_j − θ_d,j` [rad].
     pub fn error(&self, j: usize) -> f64 {
-        self.at(j)
+        self.at(Channels::ERROR, j)
     }
     /// Estimated angle `θ̂_j` [rad].
     pub fn theta(&self, j: usize) -> f64 {
-        self.at(2 + j)
+        self.at(Channels::THETA, j)
     }
     /// Estimated modal coordinate `δ̂_j` [√kg·m].
     pub fn delta(&self, j: usize) -> f64 {
-        self.at(4 + j)
+        self.at(Channels::DELTA, j)
     }
     /// Torque command `τ_j` [N·m].
     pub fn tau(&self, j: usize) -> f64 {
-        self.at(6 + j)
+        self.at(Channels::TAU, j)
     }
     /// Piezo command [V].
     pub fn v_a(&self) -> f64 {
-        self.at(8)
+        self.at(Channels::V_A, 0)
     }
     /// Film voltage [V].
     pub fn v_f(&self) -> f64 {
-        self.at(9)
+        self.at(Channels::V_F, 0)
     }
     /// Load of the piezo (0) or motor (1) loop [fraction of its period].
     pub fn load(&self, i: usize) -> f64 {
-        self.at(10 + i)
+        self.at(Channels::LOAD, i)
     }
     /// The reference `θ_d = θ̂ − (θ̂ − θ_d)` [rad].
     pub fn reference(&self, j: usize) -> f64 {
@@ -145,17 +148,25 @@ impl Values<'_> {
 
 /// The frame's values by name.
 pub fn values(f: &Telemetry) -> Values<'_> {
-    Values(&f.values)
+    Values(Some(f))
 }
 
-/// The frame as a sample at `t` [s] (all channels, in [`Channels`] order); `None` for a frame
-/// without them.
+/// The channels a recording's sample needs.
+const SAMPLED: u16 = Channels::ERROR
+    | Channels::THETA
+    | Channels::DELTA
+    | Channels::TAU
+    | Channels::V_A
+    | Channels::V_F;
+
+/// The frame as a sample at `t` [s]; `None` for a frame without the channels it needs
+/// (`SAMPLED`).
 pub(crate) fn sample(
     f: &Telemetry,
     t: f64,
     model: &flexarm_core::model::Model<f64>,
 ) -> Option<Sample> {
-    if f.values.len() < 10 {
+    if f.channels.0 & SAMPLED != SAMPLED {
         return None;
     }
     let v = values(f);
@@ -190,8 +201,8 @@ pub fn record(
     let motor_hz = f64::from(hello.motor_hz);
     let model_text = model_of(model, &hello);
     let mut params = std::collections::BTreeMap::new();
-    for (name, p, _) in crate::params::NAMES {
-        params.insert(name.to_string(), c.get(p)?);
+    for p in flexarm_link::params::PARAMS {
+        params.insert(p.name.to_string(), c.get(p.param)?);
     }
     let k_c = params.get("kc").copied().unwrap_or(f32::NAN);
     let kp = [

@@ -222,50 +222,6 @@ impl BoardConfig {
         AmplifierMonitor::new(self.amplifier_settle, self.amplifier_debounce)
     }
 
-    /// The value the link's parameter `p` boots with on this board (`Get` before any `Set`),
-    /// or `None` for an index it does not have and for the piezo bias (not a configuration's:
-    /// 0 at boot).
-    pub fn param(&self, p: Param) -> Option<f32> {
-        let (g, l) = (&self.gains, &self.limits);
-        let i = |i: u8| usize::from(i);
-        match p {
-            Param::Kp(k) => g.kp.get(i(k)).copied(),
-            Param::Lambda(k) => g.lambda.get(i(k)).copied(),
-            Param::DDelta(k) => g.d_delta.get(i(k)).copied(),
-            Param::Kc => Some(self.piezo.k_c),
-            Param::CutoffHz => Some(self.piezo.cutoff_hz),
-            Param::TauMax(k) => l.tau_max.get(i(k)).copied(),
-            Param::VaMax => Some(l.v_a_max),
-            Param::VaMin => Some(l.v_a_min),
-            Param::LinkTimeout => Some(self.link_timeout_s as f32),
-            Param::VaBias => None,
-        }
-    }
-
-    /// Sets the link's parameter `p` to `value` in this configuration (as a `Set` at boot
-    /// would, without its validation: the controller built from it latches `InvalidConfig` on
-    /// a bad value); `false` for an index it does not have and for the piezo bias.
-    pub fn set_param(&mut self, p: Param, value: f32) -> bool {
-        let (g, l) = (&mut self.gains, &mut self.limits);
-        let i = |i: u8| usize::from(i);
-        let slot = match p {
-            Param::Kp(k) => g.kp.get_mut(i(k)),
-            Param::Lambda(k) => g.lambda.get_mut(i(k)),
-            Param::DDelta(k) => g.d_delta.get_mut(i(k)),
-            Param::Kc => Some(&mut self.piezo.k_c),
-            Param::CutoffHz => Some(&mut self.piezo.cutoff_hz),
-            Param::TauMax(k) => l.tau_max.get_mut(i(k)),
-            Param::VaMax => Some(&mut l.v_a_max),
-            Param::VaMin => Some(&mut l.v_a_min),
-            Param::LinkTimeout => {
-                self.link_timeout_s = value as u32;
-                return true;
-            }
-            Param::VaBias => None,
-        };
-        slot.map(|s| *s = value).is_some()
-    }
-
     /// Every number of the configuration, in a fixed order, as `u32` words (an `f32` as its
     /// bits; the board as 0 for the hardware and 1 for QEMU, the law as 0 for Eq. 7 and 1 for
     /// Eq. 16): what [`Self::hash`] hashes.
@@ -365,6 +321,64 @@ impl BoardConfig {
         h
     }
 }
+
+/// A configuration field a parameter's declaration names: an `f32`, or the link watchdog's
+/// whole seconds.
+trait Field {
+    fn value(&self) -> f32;
+    fn set(&mut self, v: f32);
+}
+
+impl Field for f32 {
+    fn value(&self) -> f32 {
+        *self
+    }
+    fn set(&mut self, v: f32) {
+        *self = v;
+    }
+}
+
+impl Field for u32 {
+    fn value(&self) -> f32 {
+        *self as f32
+    }
+    fn set(&mut self, v: f32) {
+        *self = v as u32;
+    }
+}
+
+/// `BoardConfig::param` and `set_param` from the parameters' declaration
+/// (`flexarm_link::for_each_param!`): each one's configuration field.
+macro_rules! config_params {
+    ($($variant:ident $name:literal $unit:literal ($min:expr, $max:expr) $moving:ident
+       {$($field:tt)*} $home:ident $(($($h:tt)*))? $doc:literal;)*) => {
+        impl BoardConfig {
+            /// The value the link's parameter `p` boots with on this board (`Get` before any
+            /// `Set`), or `None` for one the configuration does not hold (the piezo bias,
+            /// which boots at 0).
+            pub fn param(&self, p: Param) -> Option<f32> {
+                match p {
+                    $(Param::$variant => config_params!(@get self {$($field)*}),)*
+                }
+            }
+
+            /// Sets the link's parameter `p` to `value` in this configuration (as a `Set` at
+            /// boot would, without its checks: a controller built from a bad value latches
+            /// `InvalidConfig`); `false` for one the configuration does not hold.
+            pub fn set_param(&mut self, p: Param, value: f32) -> bool {
+                match p {
+                    $(Param::$variant => config_params!(@set self value {$($field)*}),)*
+                }
+            }
+        }
+    };
+    (@get $s:ident {}) => { None };
+    (@get $s:ident {$($f:tt)+}) => { Some(Field::value(&$s.$($f)+)) };
+    (@set $s:ident $v:ident {}) => { false };
+    (@set $s:ident $v:ident {$($f:tt)+}) => {{ Field::set(&mut $s.$($f)+, $v); true }};
+}
+
+flexarm_link::for_each_param!(config_params);
 
 fn v2(x: &mut impl FnMut(f32), v: &Vector2<f32>) {
     x(v.x);

@@ -199,46 +199,47 @@ impl Session {
                 control.stream_every = 0;
                 Reply::Done
             }
-            Command::Get(Param::VaBias) => Reply::Value(control.piezo_bias),
-            Command::Set(Param::VaBias, v) => match drive.mode(ctrl) {
-                drive::Mode::Armed => {
-                    let l = &ctrl.motor.limits;
-                    if (l.v_a_min..=l.v_a_max).contains(&v) {
-                        control.piezo_bias = v;
-                        Reply::Done
-                    } else {
-                        Reply::Refused(Refusal::OutOfRange)
-                    }
-                }
-                drive::Mode::Moving | drive::Mode::Stopping => Reply::Refused(Refusal::Moving),
-                drive::Mode::Fault => Reply::Refused(Refusal::Faulted),
-                drive::Mode::Disarmed => Reply::Refused(Refusal::NotArmed),
-            },
-            Command::Get(Param::LinkTimeout) => {
-                Reply::Value(drive.link_timeout as f32 / id.motor_hz as f32)
-            }
-            Command::Set(Param::LinkTimeout, v) => {
-                if matches!(
-                    drive.mode(ctrl),
-                    drive::Mode::Moving | drive::Mode::Stopping
-                ) {
-                    Reply::Refused(Refusal::Moving)
-                } else if (0.0..=3600.0).contains(&v) {
-                    drive.link_timeout = (v * id.motor_hz as f32) as u32;
-                    Reply::Done
-                } else {
-                    Reply::Refused(Refusal::OutOfRange)
-                }
-            }
-            Command::Get(p) => match tunable(p).and_then(|p| self.tuning.get(ctrl, p)) {
-                Ok(v) => Reply::Value(v),
-                Err(e) => Reply::Refused(tune_refusal(e)),
+            Command::Get(p) => match home(p) {
+                Home::Tuning(t) => match self.tuning.get(ctrl, t) {
+                    Ok(v) => Reply::Value(v),
+                    Err(e) => Reply::Refused(tune_refusal(e)),
+                },
+                Home::LinkTimeout => Reply::Value(drive.link_timeout as f32 / id.motor_hz as f32),
+                Home::Bias => Reply::Value(control.piezo_bias),
             },
             Command::Set(p, v) => {
                 let mode = drive.mode(ctrl);
-                match tunable(p).and_then(|p| self.tuning.set(ctrl, mode, p, v)) {
-                    Ok(()) => Reply::Done,
-                    Err(e) => Reply::Refused(tune_refusal(e)),
+                let ((min, max), while_moving) = rule(p);
+                if !while_moving && matches!(mode, drive::Mode::Moving | drive::Mode::Stopping) {
+                    return Reply::Refused(Refusal::Moving);
+                }
+                // Written so that NaN is refused too.
+                if !(min..=max).contains(&v) {
+                    return Reply::Refused(Refusal::OutOfRange);
+                }
+                match home(p) {
+                    Home::Tuning(t) => match self.tuning.set(ctrl, mode, t, v) {
+                        Ok(()) => Reply::Done,
+                        Err(e) => Reply::Refused(tune_refusal(e)),
+                    },
+                    Home::LinkTimeout => {
+                        drive.link_timeout = (v * id.motor_hz as f32) as u32;
+                        Reply::Done
+                    }
+                    // Within the amplifier's window, while the drive holds.
+                    Home::Bias => match mode {
+                        drive::Mode::Armed => {
+                            let l = &ctrl.motor.limits;
+                            if (l.v_a_min..=l.v_a_max).contains(&v) {
+                                control.piezo_bias = v;
+                                Reply::Done
+                            } else {
+                                Reply::Refused(Refusal::OutOfRange)
+                            }
+                        }
+                        drive::Mode::Fault => Reply::Refused(Refusal::Faulted),
+                        _ => Reply::Refused(Refusal::NotArmed),
+                    },
                 }
             }
             Command::TestAmplifierFault(_) => Reply::Refused(Refusal::Unsupported),
@@ -397,21 +398,44 @@ pub fn refusal(r: Refused) -> Refusal {
     }
 }
 
-/// The core's name of a link parameter (the link timeout is the drive's and the bias the
-/// [`Control`]'s, not here).
-pub fn tunable(p: Param) -> Result<Tunable, TuneError> {
-    Ok(match p {
-        Param::Kp(i) => Tunable::Kp(usize::from(i)),
-        Param::Lambda(i) => Tunable::Lambda(usize::from(i)),
-        Param::DDelta(i) => Tunable::DDelta(usize::from(i)),
-        Param::Kc => Tunable::Kc,
-        Param::CutoffHz => Tunable::CutoffHz,
-        Param::TauMax(i) => Tunable::TauMax(usize::from(i)),
-        Param::VaMax => Tunable::VaMax,
-        Param::VaMin => Tunable::VaMin,
-        Param::LinkTimeout | Param::VaBias => return Err(TuneError::Unknown),
-    })
+/// Where the running board keeps a parameter (its declaration's home,
+/// `flexarm_link::for_each_param!`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Home {
+    /// The controller's, through `flexarm_core::tuning`.
+    Tuning(Tunable),
+    /// The drive's link watchdog.
+    LinkTimeout,
+    /// The piezo bias ([`Control::piezo_bias`]).
+    Bias,
 }
+
+/// `home` and `rule` from the parameters' declaration.
+macro_rules! session_params {
+    ($($variant:ident $name:literal $unit:literal ($min:expr, $max:expr) $moving:ident
+       {$($field:tt)*} $home:ident $(($($h:tt)*))? $doc:literal;)*) => {
+        /// Where the running board keeps `p`.
+        pub fn home(p: Param) -> Home {
+            match p {
+                $(Param::$variant => session_params!(@home $home $(($($h)*))?),)*
+            }
+        }
+
+        /// The range a `Set` of `p` must fall in, and whether it is accepted while moving.
+        pub fn rule(p: Param) -> ((f32, f32), bool) {
+            match p {
+                $(Param::$variant => (($min, $max), session_params!(@moving $moving)),)*
+            }
+        }
+    };
+    (@home tuning ($($t:tt)*)) => { Home::Tuning(Tunable::$($t)*) };
+    (@home drive (link_timeout)) => { Home::LinkTimeout };
+    (@home bias) => { Home::Bias };
+    (@moving moving) => { true };
+    (@moving fixed) => { false };
+}
+
+flexarm_link::for_each_param!(session_params);
 
 fn tune_refusal(e: TuneError) -> Refusal {
     match e {

@@ -144,19 +144,29 @@ fn every_parameter_is_read_written_at_rest_and_refused_while_moving_or_out_of_ra
     let mut r = qemu();
     let cfg = r.cfg;
     let g = cfg.gains;
+    // Every parameter the link declares boots with its configuration's value.
+    for info in flexarm_link::params::PARAMS {
+        let want = cfg.param(info.param).unwrap_or(0.0);
+        assert_eq!(
+            r.answer(Command::Get(info.param)),
+            Reply::Value(want),
+            "{}",
+            info.name
+        );
+    }
     let expected = [
-        (Param::Kp(0), g.kp.x),
-        (Param::Kp(1), g.kp.y),
-        (Param::Kp(2), g.kp.z),
-        (Param::Kp(3), g.kp.w),
-        (Param::Lambda(0), g.lambda.x),
-        (Param::Lambda(3), g.lambda.w),
-        (Param::DDelta(0), g.d_delta.x),
-        (Param::DDelta(1), g.d_delta.y),
+        (Param::Kp0, g.kp.x),
+        (Param::Kp1, g.kp.y),
+        (Param::Kp2, g.kp.z),
+        (Param::Kp3, g.kp.w),
+        (Param::Lambda0, g.lambda.x),
+        (Param::Lambda3, g.lambda.w),
+        (Param::DDelta0, g.d_delta.x),
+        (Param::DDelta1, g.d_delta.y),
         (Param::Kc, cfg.piezo.k_c),
         (Param::CutoffHz, cfg.piezo.cutoff_hz),
-        (Param::TauMax(0), cfg.limits.tau_max.x),
-        (Param::TauMax(1), cfg.limits.tau_max.y),
+        (Param::TauMax0, cfg.limits.tau_max.x),
+        (Param::TauMax1, cfg.limits.tau_max.y),
         (Param::VaMax, cfg.limits.v_a_max),
         (Param::VaMin, cfg.limits.v_a_min),
         (Param::LinkTimeout, cfg.link_timeout_s as f32),
@@ -167,7 +177,7 @@ fn every_parameter_is_read_written_at_rest_and_refused_while_moving_or_out_of_ra
     }
     // Written at rest and read back; the controller runs it.
     for (p, v) in [
-        (Param::Kp(1), 10.0),
+        (Param::Kp1, 10.0),
         (Param::Kc, 3.162),
         (Param::VaMin, -30.0),
         (Param::LinkTimeout, 2.0),
@@ -180,27 +190,23 @@ fn every_parameter_is_read_written_at_rest_and_refused_while_moving_or_out_of_ra
     assert_eq!(r.drive.link_timeout, 2 * cfg.motor_hz());
     // Refused, nothing written.
     for (p, v, why) in [
-        (Param::Kp(0), -1.0, Refusal::OutOfRange),
+        (Param::Kp0, -1.0, Refusal::OutOfRange),
         (Param::Kc, f32::NAN, Refusal::OutOfRange),
         (Param::CutoffHz, 1e6, Refusal::OutOfRange),
-        (Param::TauMax(0), 1e3, Refusal::OutOfRange),
+        (Param::TauMax0, 1e3, Refusal::OutOfRange),
         (Param::VaMax, 1e6, Refusal::OutOfRange),
         (Param::LinkTimeout, -1.0, Refusal::OutOfRange),
-        (Param::Kp(7), 1.0, Refusal::UnknownParam),
-        (Param::TauMax(2), 1.0, Refusal::UnknownParam),
+        (Param::Kp0, 2e4, Refusal::OutOfRange),
+        (Param::VaMin, 5.0, Refusal::OutOfRange),
     ] {
         let before = r.answer(Command::Get(p));
         assert_eq!(r.answer(Command::Set(p, v)), Reply::Refused(why), "{p:?}");
         assert_eq!(r.answer(Command::Get(p)), before, "{p:?} unchanged");
     }
-    assert_eq!(
-        r.answer(Command::Get(Param::DDelta(2))),
-        Reply::Refused(Refusal::UnknownParam)
-    );
     // While a move runs: refused.
     assert_eq!(r.answer(Command::Arm), Reply::Done);
     assert_eq!(r.answer(trapezoid([0.3, 0.0], 2.0, 0.5)), Reply::Done);
-    for p in [Param::Kp(0), Param::Kc, Param::LinkTimeout, Param::VaBias] {
+    for p in [Param::Kp0, Param::Kc, Param::LinkTimeout, Param::VaBias] {
         assert_eq!(
             r.answer(Command::Set(p, 1.0)),
             Reply::Refused(Refusal::Moving),
@@ -262,13 +268,34 @@ fn a_subscription_streams_its_channels_at_its_decimation_until_unsubscribed() {
         let p = r.period();
         let f = frames(&mut r);
         assert_eq!(f.len(), 1, "one frame a period at decimation 1");
-        let v = &f[0].values;
-        assert_eq!(v.len(), Channels(Channels::ALL).values());
-        assert!(v.len() <= MAX_CHANNELS);
-        // error (2), θ̂ (2), δ̂ (2), τ (2), V_a, V_f, loads (2)
-        assert_eq!(v[6..8], [p.command.tau.x, p.command.tau.y]);
-        assert_eq!(v[8], p.command.v_a);
-        assert_eq!(v[2..6], [p.q.x, p.q.y, p.q.z, p.q.w]);
+        let f0 = &f[0];
+        assert_eq!(f0.values.len(), Channels(Channels::ALL).values());
+        assert!(f0.values.len() <= MAX_CHANNELS);
+        // By name, as the console reads them.
+        let v = |bit, j| f0.value(bit, j).unwrap();
+        assert_eq!(
+            [v(Channels::TAU, 0), v(Channels::TAU, 1)],
+            [p.command.tau.x, p.command.tau.y]
+        );
+        assert_eq!(v(Channels::V_A, 0), p.command.v_a);
+        assert_eq!(
+            [
+                v(Channels::THETA, 0),
+                v(Channels::THETA, 1),
+                v(Channels::DELTA, 0),
+                v(Channels::DELTA, 1)
+            ],
+            [p.q.x, p.q.y, p.q.z, p.q.w]
+        );
+        assert_eq!(
+            [
+                v(Channels::ERROR, 0),
+                v(Channels::ERROR, 1),
+                v(Channels::V_F, 0)
+            ],
+            [p.error.x, p.error.y, p.y.v_f]
+        );
+        assert_eq!(f0.value(Channels::TAU, 2), None);
         all.push(f[0].clone());
     }
     assert!(
@@ -283,7 +310,10 @@ fn a_subscription_streams_its_channels_at_its_decimation_until_unsubscribed() {
         let p = r.period();
         for f in frames(&mut r) {
             assert_eq!(f.channels, Channels(bits));
+            // Read by name, a subset's columns are its own: τ at 0 and 1, V_f at 2.
             assert_eq!(f.values[..], [p.command.tau.x, p.command.tau.y, p.y.v_f]);
+            assert_eq!(f.value(Channels::V_F, 0), Some(p.y.v_f));
+            assert_eq!(f.value(Channels::THETA, 0), None, "not in the subset");
             subset.push(f);
         }
     }

@@ -33,7 +33,12 @@ use flexarm_sim::sim::{SimConfig, simulate};
 /// V_f (1), loads (2).
 const CHANNELS: u16 = Channels::ALL;
 /// Values per frame of the session's channels.
-const VALUES: usize = 12;
+const VALUES: usize = Channels(CHANNELS).values();
+
+/// The `j`-th value of the channel `bit` in `f`, by name (NaN when the frame lacks it).
+fn v(f: &Telemetry, bit: u16, j: usize) -> f32 {
+    f.value(bit, j).unwrap_or(f32::NAN)
+}
 
 struct Link {
     stream: TcpStream,
@@ -203,7 +208,7 @@ fn circle(link: &mut Link) -> Result<(), String> {
     let during = &link.telemetry[first..];
     let max_error = during
         .iter()
-        .flat_map(|f| f.values.iter().take(2))
+        .flat_map(|f| [v(f, Channels::ERROR, 0), v(f, Channels::ERROR, 1)])
         .fold(0.0f32, |m, e| m.max(e.abs()));
     let host = simulated_error(&JointTrajectory::Circle(c), 3.162)?;
     let bound = 3.0 * host as f32;
@@ -217,14 +222,21 @@ fn circle(link: &mut Link) -> Result<(), String> {
     )
 }
 
-/// The values of a frame the replay compares: errors, θ̂, δ̂, τ, V_a, V_f (not the loads).
-const REPLAYED: usize = 10;
+/// The bits of the values of `f` the replay compares, by name: every channel but the loads
+/// (errors, θ̂, δ̂, τ, V_a, V_f).
+fn replayed(f: &Telemetry) -> Vec<u32> {
+    flexarm_link::msg::CHANNELS
+        .iter()
+        .filter(|c| c.bit != Channels::LOAD)
+        .flat_map(|c| (0..c.width).map(move |j| v(f, c.bit, j).to_bits()))
+        .collect()
+}
 
 /// Bit-identical replay: the session's frames from its subscription to the end of its first
 /// move, every motor period of them, reproduced by the host's rig (`flexarm_sim::rig`) running the
 /// QEMU board's firmware (its generated configuration, whose hash must be the handshake's
 /// `params_hash`) on the QEMU board's simulated arm, both from boot: every compared value
-/// (`REPLAYED`) of every frame equal to the bit. The commands that acted before the move's end:
+/// (`replayed`) of every frame equal to the bit. The commands that acted before the move's end:
 /// arm and the move (the subscription, the refused moves, the ping and the status acted on
 /// nothing). The arm rests exactly at its boot pose until the move (every value of every frame
 /// before it 0, checked), so the tick of the arm does not matter, and the move's tick is the
@@ -240,11 +252,11 @@ fn replay(link: &Link, params_hash: u32, mv: Command) -> Result<(), String> {
     let frames = &link.telemetry;
     let moved = frames
         .iter()
-        .position(|f| f.values[6] != 0.0 || f.values[7] != 0.0)
+        .position(|f| v(f, Channels::TAU, 0) != 0.0 || v(f, Channels::TAU, 1) != 0.0)
         .ok_or("no torque in the session's first move")?;
     let at_rest = frames[..moved]
         .iter()
-        .all(|f| f.values[..REPLAYED].iter().all(|v| *v == 0.0));
+        .all(|f| replayed(f).iter().all(|b| f32::from_bits(*b) == 0.0));
     let (first, last, begin) = (
         frames[0].tick,
         frames[frames.len() - 1].tick,
@@ -266,7 +278,7 @@ fn replay(link: &Link, params_hash: u32, mv: Command) -> Result<(), String> {
     ] {
         rig.answer(command);
     }
-    let mut replayed = std::collections::BTreeMap::new();
+    let mut host = std::collections::BTreeMap::new();
     while rig.now().0 <= last {
         if rig.now().0 == begin {
             let r = rig.answer(mv.clone());
@@ -276,17 +288,12 @@ fn replay(link: &Link, params_hash: u32, mv: Command) -> Result<(), String> {
         }
         rig.period();
         for f in rig.take().into_iter().filter_map(|(_, f)| f) {
-            replayed.insert(f.tick, f.values);
+            host.insert(f.tick, replayed(&f));
         }
     }
-    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     let differ = frames
         .iter()
-        .filter(|f| {
-            replayed
-                .get(&f.tick)
-                .is_none_or(|v| bits(&v[..REPLAYED]) != bits(&f.values[..REPLAYED]))
-        })
+        .filter(|f| host.get(&f.tick).is_none_or(|bits| *bits != replayed(f)))
         .count();
     check(
         differ == 0,
@@ -402,11 +409,11 @@ fn waypoints(link: &mut Link) -> Result<(), String> {
     let during = &link.telemetry[first..];
     let max_error = during
         .iter()
-        .flat_map(|f| f.values.iter().take(2))
+        .flat_map(|f| [v(f, Channels::ERROR, 0), v(f, Channels::ERROR, 1)])
         .fold(0.0f32, |m, e| m.max(e.abs()));
-    let end = during
-        .last()
-        .map_or([9.0; 2], |f| [f.values[2], f.values[3]]);
+    let end = during.last().map_or([9.0; 2], |f| {
+        [v(f, Channels::THETA, 0), v(f, Channels::THETA, 1)]
+    });
     let host = path_simulation()?;
     let bound = 3.0 * host;
     check(
@@ -583,12 +590,12 @@ fn flood(link: &mut Link) -> Result<(), String> {
     let max_error = during
         .iter()
         .filter(|f| f.tick <= move_end)
-        .flat_map(|f| f.values.iter().take(2))
+        .flat_map(|f| [v(f, Channels::ERROR, 0), v(f, Channels::ERROR, 1)])
         .fold(0.0f32, |m, e| m.max(e.abs()));
     let misses = |s: &flexarm_link::msg::Status| s.loads[0].misses + s.loads[1].misses;
-    let end = during
-        .last()
-        .map_or([9.0; 2], |f| [f.values[2], f.values[3]]);
+    let end = during.last().map_or([9.0; 2], |f| {
+        [v(f, Channels::THETA, 0), v(f, Channels::THETA, 1)]
+    });
     check(
         rate >= 10_000.0 && after.rx_lost == before.rx_lost,
         "the flood kept the line full at QEMU's pace, none of it lost",
@@ -634,8 +641,8 @@ fn fault_recorder(link: &mut Link) -> Result<(), String> {
         let n = link.telemetry.len();
         let still = n > 3
             && link.telemetry[n - 3..].windows(2).all(|w| {
-                (w[1].values[2] - w[0].values[2]).abs() < 1e-4
-                    && (w[1].values[3] - w[0].values[3]).abs() < 1e-4
+                (v(&w[1], Channels::THETA, 0) - v(&w[0], Channels::THETA, 0)).abs() < 1e-4
+                    && (v(&w[1], Channels::THETA, 1) - v(&w[0], Channels::THETA, 1)).abs() < 1e-4
             });
         if still {
             break;
@@ -898,7 +905,7 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
     let during = &link.telemetry[first..];
     let max_error = during
         .iter()
-        .flat_map(|f| f.values.iter().take(2))
+        .flat_map(|f| [v(f, Channels::ERROR, 0), v(f, Channels::ERROR, 1)])
         .fold(0.0f32, |m, e| m.max(e.abs()));
     let traj = JointTrajectory::Trapezoid(Trapezoid {
         start: nalgebra::Vector2::zeros(),
@@ -931,9 +938,9 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
     )?;
     for (p, v, why) in [
         (Param::VaMax, 1e6, Refusal::OutOfRange),
-        (Param::Kp(0), -1.0, Refusal::OutOfRange),
+        (Param::Kp0, -1.0, Refusal::OutOfRange),
         (Param::CutoffHz, f32::NAN, Refusal::OutOfRange),
-        (Param::Kp(7), 1.0, Refusal::UnknownParam),
+        (Param::LinkTimeout, 1e5, Refusal::OutOfRange),
     ] {
         let r = link.ask(Command::Set(p, v))?;
         check(
@@ -970,7 +977,7 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
         "a parameter change while it runs is refused",
         format!("{r:?}"),
     )?;
-    let theta1 = |l: &Link| l.telemetry.last().map_or(1.0, |f| f.values[2]);
+    let theta1 = |l: &Link| l.telemetry.last().map_or(1.0, |f| v(f, Channels::THETA, 0));
     let start = Instant::now();
     while theta1(&link) > 0.75 {
         if start.elapsed() > Duration::from_secs(30) {
@@ -993,10 +1000,9 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
         link.ask(Command::Ping)?;
         std::thread::sleep(Duration::from_millis(2));
     }
-    let held = link
-        .telemetry
-        .last()
-        .map_or([0.0; 2], |f| [f.values[2], f.values[3]]);
+    let held = link.telemetry.last().map_or([0.0; 2], |f| {
+        [v(f, Channels::THETA, 0), v(f, Channels::THETA, 1)]
+    });
     check(
         held[0] > 0.1 && held[0] < 0.75 && held[1] < -0.05,
         "the stop holds short of the move's target (0, 0), past 0.75 rad where it was given",
@@ -1019,10 +1025,9 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
     let Reply::Status(s) = r else {
         return Err(format!("status: {r:?}"));
     };
-    let reached = link
-        .telemetry
-        .last()
-        .map_or([0.0; 2], |f| [f.values[2], f.values[3]]);
+    let reached = link.telemetry.last().map_or([0.0; 2], |f| {
+        [v(f, Channels::THETA, 0), v(f, Channels::THETA, 1)]
+    });
     check(
         s.mode == Mode::Armed && s.link_stops == 1 && reached[0] > 0.05 && reached[0] < 0.75,
         "the link watchdog stops a move whose host fell silent",
@@ -1066,9 +1071,9 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
         .count();
     let (mut load, mut v_f) = ([0.0f32; 2], 0.0f32);
     for f in t {
-        load[0] = load[0].max(f.values[10]);
-        load[1] = load[1].max(f.values[11]);
-        v_f = v_f.max(f.values[9].abs());
+        load[0] = load[0].max(v(f, Channels::LOAD, 0));
+        load[1] = load[1].max(v(f, Channels::LOAD, 1));
+        v_f = v_f.max(v(f, Channels::V_F, 0).abs());
     }
     check(
         gaps == 0
