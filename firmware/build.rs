@@ -74,8 +74,9 @@ fn budgets() {
             .parse()
             .expect("budgets.txt: values are whole numbers");
         out += &format!(
-            "#[allow(dead_code)]\npub const BUDGET_{}: u32 = {value};\n",
-            key.trim().to_uppercase()
+            "/// `{key}` of firmware/budgets.txt.\n#[allow(dead_code)]\npub const BUDGET_{}: u32 = {value};\n",
+            key.trim().to_uppercase(),
+            key = key.trim()
         );
     }
     let path =

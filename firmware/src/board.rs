@@ -3,8 +3,10 @@
 //! the arm is wired to them ([`wiring`]). Digital lines go through `embedded-hal` 1.0 pin traits.
 
 #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
+#[allow(unsafe_code)]
 pub mod clocks;
 #[cfg(feature = "hw")]
+#[allow(unsafe_code)]
 pub mod hw;
 #[cfg(feature = "qemu")]
 pub mod sim;

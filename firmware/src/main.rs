@@ -21,10 +21,14 @@
 // (`verdict`, the stack report) is compiled but unused there.
 #![cfg_attr(feature = "link-session", allow(dead_code))]
 
+// The register code: the only `unsafe` of the workspace (its lints deny it everywhere else).
 mod board;
+#[allow(unsafe_code)]
 mod clock;
 mod config;
+#[allow(unsafe_code)]
 mod emergency;
+#[allow(unsafe_code)]
 mod stack;
 /// The generated parameters (`cargo sim firmware-params`): `src/generated.rs`, from
 /// `firmware/piezo.toml`, or the file `FLEXARM_PARAMS` names at build time (build.rs copies it
@@ -33,6 +37,7 @@ mod stack;
 mod generated {
     include!(concat!(env!("OUT_DIR"), "/generated.rs"));
 }
+#[allow(unsafe_code)]
 mod link;
 mod stats;
 mod telemetry;

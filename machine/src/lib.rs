@@ -16,6 +16,13 @@
 //!
 //! Units SI and frames as in `flexarm_core`; ticks in motor periods.
 #![no_std]
+// No panics on the control path: errors are values.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 pub mod board;
 pub mod config;
