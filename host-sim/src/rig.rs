@@ -149,6 +149,12 @@ impl<B: Board> Rig<B> {
         self.drive.start(&mut self.control.ctrl, now, request)
     }
 
+    /// Starts a controlled stop (as the link's `Stop`).
+    pub fn stop(&mut self) -> Result<(), Refused> {
+        let now = self.drive.next_tick();
+        self.drive.stop(&mut self.control.ctrl, now)
+    }
+
     /// Runs `trajectory` from its time `offset` [s] without the move limits' validation
     /// (`Drive::follow`: a study's own trajectory).
     pub fn follow(&mut self, trajectory: JointTrajectory<f32>, offset: f32) -> Result<(), Refused> {

@@ -90,21 +90,14 @@ fn disarmed_the_outputs_are_safe_and_the_observer_follows() {
         .max();
     assert!(err < 2e-3, "the observer follows the free arm: {err}");
     // A move is refused until armed.
-    let r = b.rig.drive.start(
-        &mut b.rig.control.ctrl,
-        b.rig.motor.now(),
-        &trapezoid([0.5, 0.0], 2.0, 0.5),
-    );
+    let r = b.rig.start(&trapezoid([0.5, 0.0], 2.0, 0.5));
     assert_eq!(r, Err(Refused::NotArmed));
 }
 
 #[test]
 fn armed_it_holds_a_move_runs_and_ends_holding_at_its_target() {
     let mut b = Bench::new(Vector2::new(0.1, 0.2));
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     b.run(0.5);
     assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Armed);
     assert!((b.theta() - Vector2::new(0.1, 0.2)).abs().max() < 2e-3);
@@ -120,11 +113,7 @@ fn armed_it_holds_a_move_runs_and_ends_holding_at_its_target() {
     assert_eq!(d, 2.0);
     assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Moving);
     // While it runs another move is refused.
-    let r = b.rig.drive.start(
-        &mut b.rig.control.ctrl,
-        b.rig.motor.now(),
-        &trapezoid([0.0, 0.0], 2.0, 0.5),
-    );
+    let r = b.rig.start(&trapezoid([0.0, 0.0], 2.0, 0.5));
     assert_eq!(r, Err(Refused::Moving));
     b.run(1.995);
     assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Moving);
@@ -143,10 +132,7 @@ fn armed_it_holds_a_move_runs_and_ends_holding_at_its_target() {
 #[test]
 fn a_move_is_validated_whole_and_refused_with_its_reason() {
     let mut b = Bench::new(Vector2::zeros());
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     let held = b.rig.control.ctrl.trajectory;
     for (req, why) in [
         (trapezoid([f32::NAN, 0.0], 2.0, 0.5), Refused::OutOfRange),
@@ -159,49 +145,26 @@ fn a_move_is_validated_whole_and_refused_with_its_reason() {
         // 1 rad, 0.05 s ramps: 1.05 rad/s but 21 rad/s².
         (trapezoid([1.0, 0.0], 1.0, 0.05), Refused::TooFast),
     ] {
-        assert_eq!(
-            b.rig
-                .drive
-                .start(&mut b.rig.control.ctrl, b.rig.motor.now(), &req),
-            Err(why),
-            "{req:?}"
-        );
+        assert_eq!(b.rig.start(&req), Err(why), "{req:?}");
         assert_eq!(b.rig.control.ctrl.trajectory, held, "nothing applied");
         assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Armed);
     }
     // The torque estimate: a move within speed and acceleration limits but asking more than
     // half of a lowered torque limit.
     b.rig.control.ctrl.motor.limits.tau_max = Vector2::new(1.0, 1.0);
-    let r = b.rig.drive.start(
-        &mut b.rig.control.ctrl,
-        b.rig.motor.now(),
-        &trapezoid([1.5, 0.0], 1.0, 0.2),
-    );
+    let r = b.rig.start(&trapezoid([1.5, 0.0], 1.0, 0.2));
     assert_eq!(r, Err(Refused::TooFast));
 }
 
 #[test]
 fn a_stop_decelerates_within_the_limits_and_holds() {
     let mut b = Bench::new(Vector2::zeros());
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([2.0, 1.0], 2.0, 0.5),
-        )
-        .unwrap();
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([2.0, 1.0], 2.0, 0.5)).unwrap();
     b.run(1.0); // mid-move, at 1.33 rad/s on joint 1
     let speed = b.rig.board.sim.arm.x.qd.x;
     assert!(speed > 1.0, "{speed}");
-    b.rig
-        .drive
-        .stop(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.stop().unwrap();
     assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Stopping);
     let at_stop = b.theta();
     // Reference: v²/(2a) = 1.33²/20 = 0.09 rad to rest at 10 rad/s².
@@ -229,10 +192,7 @@ fn a_stop_decelerates_within_the_limits_and_holds() {
 #[test]
 fn a_fault_is_cleared_only_when_its_cause_is_gone() {
     let mut b = Bench::new(Vector2::zeros());
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     b.run(0.1);
     // An encoder reading out of range.
     let bad = Measurement {
@@ -245,10 +205,7 @@ fn a_fault_is_cleared_only_when_its_cause_is_gone() {
         .motor_step(b.rig.drive.time(b.rig.motor.now()), Some(&bad));
     assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::OutOfRange));
     assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Fault);
-    assert_eq!(
-        b.rig.drive.arm(&mut b.rig.control.ctrl, b.rig.motor.now()),
-        Err(Refused::Faulted)
-    );
+    assert_eq!(b.rig.arm(), Err(Refused::Faulted));
     assert_eq!(
         b.rig
             .drive
@@ -298,10 +255,7 @@ fn a_fault_is_cleared_only_when_its_cause_is_gone() {
         .drive
         .clear(&mut b.rig.control.ctrl, Some(&good), false)
         .unwrap();
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     b.run(0.5);
     assert!(b.theta().abs().max() < 2e-3 && b.rig.control.ctrl.fault().is_none());
 }
@@ -309,18 +263,8 @@ fn a_fault_is_cleared_only_when_its_cause_is_gone() {
 #[test]
 fn disarm_is_always_accepted_and_cuts_the_outputs_in_the_same_period() {
     let mut b = Bench::new(Vector2::zeros());
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([1.0, 1.0], 2.0, 0.5),
-        )
-        .unwrap();
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([1.0, 1.0], 2.0, 0.5)).unwrap();
     b.run(0.7);
     b.rig.drive.disarm(&mut b.rig.control.ctrl);
     let (tau, v) = b.period();
@@ -333,19 +277,9 @@ fn disarm_is_always_accepted_and_cuts_the_outputs_in_the_same_period() {
 fn the_link_watchdog_stops_a_move_the_host_stopped_watching() {
     let mut b = Bench::new(Vector2::zeros());
     b.rig.drive.link_timeout = 200; // 0.2 s at 1 kHz
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     // No host has spoken: a move runs to its end unwatched (the QEMU verdict runs' boot move).
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([0.5, 0.0], 1.0, 0.25),
-        )
-        .unwrap();
+    b.rig.start(&trapezoid([0.5, 0.0], 1.0, 0.25)).unwrap();
     b.run(1.1);
     assert_eq!(
         (
@@ -356,14 +290,7 @@ fn the_link_watchdog_stops_a_move_the_host_stopped_watching() {
     );
     // A host that keeps talking keeps its move.
     b.rig.drive.heard(b.rig.motor.now());
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([0.0, 0.0], 1.0, 0.25),
-        )
-        .unwrap();
+    b.rig.start(&trapezoid([0.0, 0.0], 1.0, 0.25)).unwrap();
     for _ in 0..11 {
         b.rig.drive.heard(b.rig.motor.now());
         b.run(0.1);
@@ -378,14 +305,7 @@ fn the_link_watchdog_stops_a_move_the_host_stopped_watching() {
     assert!(b.theta().abs().max() < 2e-3, "reached its target");
     // A host that falls silent: stopped 0.2 s later, short of the target, then holding.
     b.rig.drive.heard(b.rig.motor.now());
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([1.0, 0.0], 2.0, 0.5),
-        )
-        .unwrap();
+    b.rig.start(&trapezoid([1.0, 0.0], 2.0, 0.5)).unwrap();
     b.run(0.15);
     assert_eq!(
         b.rig.drive.mode(&b.rig.control.ctrl),
@@ -476,18 +396,8 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
     assert_eq!(t.get(&b.rig.control.ctrl, Tunable::VaMin), Ok(-30.0));
     assert_eq!(b.rig.control.ctrl.piezo.window(), (-30.0, 175.0));
     // While a move runs: refused; after it: accepted.
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([0.3, 0.0], 1.0, 0.25),
-        )
-        .unwrap();
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([0.3, 0.0], 1.0, 0.25)).unwrap();
     b.run(0.1);
     assert_eq!(b.tune(&mut t, Tunable::Kp(0), 50.0), Err(TuneError::Moving));
     b.run(1.0);
@@ -502,10 +412,7 @@ fn a_circle_starts_where_the_tip_is_held_and_is_refused_otherwise() {
     use flexarm_core::trajectory::Circle;
     let start = Circle::<f32>::paper(0.3, 0.7).unwrap().start;
     let mut b = Bench::new(start);
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     b.run(0.2);
     let circle = |centre: [f32; 2], radius: f32, period: f32| MoveRequest::Circle {
         centre: Vector2::new(centre[0], centre[1]),
@@ -528,23 +435,10 @@ fn a_circle_starts_where_the_tip_is_held_and_is_refused_otherwise() {
         (circle([0.65, 0.0], 0.2, f32::NAN), Refused::OutOfRange),
         (circle([0.65, 0.0], -0.2, 4.0), Refused::OutOfRange),
     ] {
-        assert_eq!(
-            b.rig
-                .drive
-                .start(&mut b.rig.control.ctrl, b.rig.motor.now(), &req),
-            Err(why),
-            "{req:?}"
-        );
+        assert_eq!(b.rig.start(&req), Err(why), "{req:?}");
         assert_eq!(b.rig.control.ctrl.trajectory, held, "nothing applied");
     }
-    assert_eq!(
-        b.rig.drive.start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &circle([0.65, 0.0], 0.2, 4.0)
-        ),
-        Ok(4.0)
-    );
+    assert_eq!(b.rig.start(&circle([0.65, 0.0], 0.2, 4.0)), Ok(4.0));
     let mut worst: f32 = 0.0;
     for _ in 0..4100 {
         b.period();
@@ -585,10 +479,7 @@ fn path() -> Vec<Waypoint<f32>> {
 #[test]
 fn a_waypoint_path_is_uploaded_in_chunks_validated_whole_and_tracked_without_overshoot() {
     let mut b = Bench::new(Vector2::zeros());
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     b.run(0.1);
     let pts = path();
     let go = |n: usize| MoveRequest::Waypoints { count: n };
@@ -604,9 +495,7 @@ fn a_waypoint_path_is_uploaded_in_chunks_validated_whole_and_tracked_without_ove
         .load_waypoints(&b.rig.control.ctrl, 0, &pts[..8])
         .unwrap();
     assert_eq!(
-        b.rig
-            .drive
-            .start(&mut b.rig.control.ctrl, b.rig.motor.now(), &go(12)),
+        b.rig.start(&go(12)),
         Err(Refused::Waypoints),
         "four waypoints missing"
     );
@@ -631,13 +520,7 @@ fn a_waypoint_path_is_uploaded_in_chunks_validated_whole_and_tracked_without_ove
             .drive
             .load_waypoints(&b.rig.control.ctrl, 0, &p)
             .unwrap();
-        assert_eq!(
-            b.rig
-                .drive
-                .start(&mut b.rig.control.ctrl, b.rig.motor.now(), &go(12)),
-            Err(why),
-            "{w:?}"
-        );
+        assert_eq!(b.rig.start(&go(12)), Err(why), "{w:?}");
         assert_eq!(b.rig.control.ctrl.trajectory, held, "nothing applied");
     };
     let w = |a: f32, c: f32, dt: f32| Waypoint {
@@ -653,12 +536,7 @@ fn a_waypoint_path_is_uploaded_in_chunks_validated_whole_and_tracked_without_ove
         .load_waypoints(&b.rig.control.ctrl, 0, &pts)
         .unwrap();
     let total: f32 = pts.iter().map(|w| w.dt).sum();
-    assert_eq!(
-        b.rig
-            .drive
-            .start(&mut b.rig.control.ctrl, b.rig.motor.now(), &go(12)),
-        Ok(total)
-    );
+    assert_eq!(b.rig.start(&go(12)), Ok(total));
     // Uploading into the running path is refused.
     assert_eq!(
         b.rig
@@ -731,28 +609,15 @@ fn a_waypoint_path_is_uploaded_in_chunks_validated_whole_and_tracked_without_ove
 #[test]
 fn a_stop_during_a_path_ends_it() {
     let mut b = Bench::new(Vector2::zeros());
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     let pts = path();
     b.rig
         .drive
         .load_waypoints(&b.rig.control.ctrl, 0, &pts)
         .unwrap();
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &MoveRequest::Waypoints { count: 12 },
-        )
-        .unwrap();
+    b.rig.start(&MoveRequest::Waypoints { count: 12 }).unwrap();
     b.run(1.0);
-    b.rig
-        .drive
-        .stop(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.stop().unwrap();
     b.run(1.0);
     assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Armed);
     let held = b
@@ -778,10 +643,7 @@ fn a_stop_during_a_path_ends_it() {
 #[test]
 fn a_plan_starts_only_from_the_pose_it_was_made_for() {
     let mut b = Bench::new(Vector2::zeros());
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     let from = b.rig.drive.held(&b.rig.control.ctrl, b.rig.motor.now());
     let copy = b.rig.drive;
     let plan = copy
@@ -792,14 +654,7 @@ fn a_plan_starts_only_from_the_pose_it_was_made_for() {
         )
         .unwrap();
     // Another move starts and ends in between: the held pose is no longer the plan's.
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([0.1, 0.0], 0.5, 0.1),
-        )
-        .unwrap();
+    b.rig.start(&trapezoid([0.1, 0.0], 0.5, 0.1)).unwrap();
     assert_eq!(
         b.rig
             .drive

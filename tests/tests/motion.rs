@@ -79,19 +79,9 @@ fn trapezoid(target: [f32; 2], move_time: f32, ramp_time: f32) -> MoveRequest<f3
 fn moving(injection: Injection, seconds: f32) -> Bench {
     let mut b = Bench::new();
     b.rig.board.injection = injection;
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     b.run(0.1);
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([1.0, 1.0], 2.0, 0.5),
-        )
-        .unwrap();
+    b.rig.start(&trapezoid([1.0, 1.0], 2.0, 0.5)).unwrap();
     b.run(seconds);
     b
 }
@@ -185,18 +175,8 @@ fn the_following_error_trips_at_its_limit() {
     let mut b = Bench::new();
     b.rig.drive.motion.frozen_periods = u32::MAX;
     b.rig.board.injection = Injection::Wall(0.3);
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([1.0, 1.0], 2.0, 0.5),
-        )
-        .unwrap();
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([1.0, 1.0], 2.0, 0.5)).unwrap();
     let mut worst: f32 = 0.0;
     for _ in 0..2000 {
         b.period();
@@ -222,18 +202,8 @@ fn the_following_error_trips_at_its_limit() {
 fn overspeed_trips_on_the_estimated_speed() {
     let mut b = Bench::new();
     b.rig.drive.motion.speed = Vector2::new(0.8, 0.8);
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([1.57, 1.57], 2.0, 0.5),
-        )
-        .unwrap();
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([1.57, 1.57], 2.0, 0.5)).unwrap();
     b.run(1.0);
     assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::Overspeed));
     // The estimate crossed 0.8 rad/s; the true speed then was within 2 % of it.
@@ -252,18 +222,8 @@ fn a_reference_into_the_range_limit_is_stopped_in_category_1_before_the_hard_lim
         .control
         .ctrl
         .reset_observer(b.rig.board.sim.arm.encoders());
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([2.5, 0.0], 2.0, 0.5),
-        )
-        .unwrap();
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([2.5, 0.0], 2.0, 0.5)).unwrap();
     // The reference goes on to 4 rad at 1.5 rad/s.
     b.rig.control.ctrl.trajectory = JointTrajectory::Trapezoid(Trapezoid {
         start: Vector2::new(2.0, 0.0),
@@ -301,18 +261,8 @@ fn a_reference_into_the_range_limit_is_stopped_in_category_1_before_the_hard_lim
 #[test]
 fn an_overloaded_motor_stops_in_category_1_and_clears_only_when_cool() {
     let mut b = Bench::new();
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
-    b.rig
-        .drive
-        .start(
-            &mut b.rig.control.ctrl,
-            b.rig.motor.now(),
-            &trapezoid([1.0, 1.0], 2.0, 0.5),
-        )
-        .unwrap();
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([1.0, 1.0], 2.0, 0.5)).unwrap();
     b.run(0.8);
     assert_eq!(b.rig.drive.pending(), None);
     b.rig.drive.heat_for_test(Vector2::new(0.96, 0.0));
@@ -352,10 +302,7 @@ fn an_overloaded_motor_stops_in_category_1_and_clears_only_when_cool() {
 #[test]
 fn holding_through_a_tap_does_not_trip() {
     let mut b = Bench::new();
-    b.rig
-        .drive
-        .arm(&mut b.rig.control.ctrl, b.rig.motor.now())
-        .unwrap();
+    b.rig.arm().unwrap();
     let mut off: f32 = 0.0;
     for k in 0..2000 {
         // The tap adds to the torque this motor period commands.
@@ -514,9 +461,9 @@ mod nominal {
             let mut b = Bench::new();
             b.rig.board.sim.arm.x.q = Vector4::new(from[0], from[1], 0.0, 0.0);
             b.rig.control.ctrl.reset_observer(b.rig.board.sim.arm.encoders());
-            b.rig.drive.arm(&mut b.rig.control.ctrl, b.rig.motor.now()).unwrap();
+            b.rig.arm().unwrap();
             let request = trapezoid(to, move_time, move_time * ramp_share);
-            if b.rig.drive.start(&mut b.rig.control.ctrl, b.rig.motor.now(), &request).is_ok() {
+            if b.rig.start(&request).is_ok() {
                 b.run(move_time + 0.5);
                 prop_assert_eq!(b.rig.control.ctrl.fault(), None);
                 prop_assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Armed);
