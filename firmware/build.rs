@@ -60,7 +60,7 @@ fn c_compare() {
 /// file `cargo sim firmware-params` wrote is taken; its inner doc comments become plain
 /// comments (`include!` takes items only).
 fn generated() {
-    const FIRST_LINE: &str = "//! The arm model, piezo patch and observer gains the firmware runs.";
+    const FIRST_LINE: &str = "//! The arm model, piezo patch and observer gains the firmware runs, in each board's configuration.";
     println!("cargo:rerun-if-env-changed=FLEXARM_PARAMS");
     let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it")).join("..");
     let (path, name) = match env::var_os("FLEXARM_PARAMS") {
@@ -107,8 +107,9 @@ fn budgets() {
             .parse()
             .expect("budgets.txt: values are whole numbers");
         out += &format!(
-            "#[allow(dead_code)]\npub const BUDGET_{}: u32 = {value};\n",
-            key.trim().to_uppercase()
+            "/// `{key}` of firmware/budgets.txt.\n#[allow(dead_code)]\npub const BUDGET_{}: u32 = {value};\n",
+            key.trim().to_uppercase(),
+            key = key.trim()
         );
     }
     let path =

@@ -4,6 +4,7 @@
 //! the piezo patch (Eqs. 1–4), the closed modal loop of the piezo rate feedback and its
 //! dissipated energy (Eqs. 21–33), and the placement optimization (Eqs. 34–35).
 //! `docs/optimization.md` states every choice made where the paper is silent.
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 pub mod cli;
 pub mod config;

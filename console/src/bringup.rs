@@ -240,11 +240,11 @@ pub fn run(c: &mut Client, o: &Options) -> Result<Report, ConsoleError> {
         return finish(c, r, None, was_armed);
     }
     let saved = Saved {
-        tau_max: [c.get(Param::TauMax(0))?, c.get(Param::TauMax(1))?],
+        tau_max: [c.get(Param::TauMax0)?, c.get(Param::TauMax1)?],
         k_c: c.get(Param::Kc)?,
     };
-    c.set(Param::TauMax(0), o.torque.min(saved.tau_max[0]))?;
-    c.set(Param::TauMax(1), o.torque.min(saved.tau_max[1]))?;
+    c.set(Param::TauMax0, o.torque.min(saved.tau_max[0]))?;
+    c.set(Param::TauMax1, o.torque.min(saved.tau_max[1]))?;
     c.set(Param::Kc, 0.0)?;
     let outcome = experiments(c, o, &mut r);
     // The experiments' error first; the restore's only when they had none.
@@ -287,8 +287,8 @@ fn finish(
         let _ = c.ask(Command::Set(Param::VaBias, 0.0))?;
     }
     if let Some(saved) = saved {
-        c.set(Param::TauMax(0), saved.tau_max[0])?;
-        c.set(Param::TauMax(1), saved.tau_max[1])?;
+        c.set(Param::TauMax0, saved.tau_max[0])?;
+        c.set(Param::TauMax1, saved.tau_max[1])?;
         if !r.failed().is_some_and(|f| f.name.starts_with("film")) {
             c.set(Param::Kc, saved.k_c)?;
         }

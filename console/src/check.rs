@@ -1,7 +1,7 @@
 //! The console's arguments checked before any connection (a closed port, a QEMU not started, an
 //! arm not armed): each against the rule the firmware or the core applies to it, from the core
 //! itself, not a copy of its numbers: a move's poses against the drive's [`MoveLimits`], its
-//! timing against [`Profile::new`], a parameter against [`Tuning::set`]. What depends on the
+//! timing against [`Profile::new`], a parameter against its declared range and [`Tuning::set`]. What depends on the
 //! board (its held pose, its ceilings, its rates) the firmware checks when it gets the request.
 
 use flexarm_core::Vector2;
@@ -10,8 +10,9 @@ use flexarm_core::controller::Controller;
 use flexarm_core::drive::{Mode, MoveLimits};
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::trajectory::{JointTrajectory, Profile};
-use flexarm_core::tuning::{Tunable, Tuning};
+use flexarm_core::tuning::Tuning;
 use flexarm_link::msg::{Move, Param, Waypoint};
+use flexarm_machine::session::{self, Home};
 
 use crate::client::ConsoleError;
 
@@ -171,28 +172,24 @@ pub fn path(points: &[Waypoint]) -> Result<(), (usize, String)> {
     Ok(())
 }
 
-/// The value of a `set` as the core's [`Tuning::set`] judges it on the paper's controller at
-/// the board's rates with no ceilings (the board applies its own): finite, and of the sign and
-/// size its rule allows. The link timeout is a time (finite, ≥ 0: 0 turns the watchdog off),
-/// the piezo bias a voltage (finite; the board keeps it inside its amplifier's window).
+/// The value of a `set` as the board judges it at rest, from the parameter's declaration
+/// (`flexarm_link::for_each_param!`: its range, its home) and the core's [`Tuning::set`] on the
+/// paper's controller at the board's rates with no ceilings (the board applies its own): finite,
+/// inside the declared range, and of the sign and size its rule allows. The piezo bias's window
+/// is the amplifier's, which the board checks.
 pub fn set_value(name: &str, p: Param, value: f32) -> Result<(), ConsoleError> {
     let refused = || {
         usage(format!(
-            "set {name} {value}: out of its range or not finite (the core's rule for `{name}`)"
+            "set {name} {value}: out of its range or not finite (the rule for `{name}`)"
         ))
     };
-    let tunable = match p {
-        Param::Kp(i) => Tunable::Kp(usize::from(i)),
-        Param::Lambda(i) => Tunable::Lambda(usize::from(i)),
-        Param::DDelta(i) => Tunable::DDelta(usize::from(i)),
-        Param::Kc => Tunable::Kc,
-        Param::CutoffHz => Tunable::CutoffHz,
-        Param::TauMax(i) => Tunable::TauMax(usize::from(i)),
-        Param::VaMax => Tunable::VaMax,
-        Param::VaMin => Tunable::VaMin,
-        Param::LinkTimeout if value.is_finite() && value >= 0.0 => return Ok(()),
-        Param::VaBias if value.is_finite() => return Ok(()),
-        Param::LinkTimeout | Param::VaBias => return refused(),
+    let ((min, max), _) = session::rule(p);
+    // Written so that NaN is refused too.
+    if !(min..=max).contains(&value) {
+        return refused();
+    }
+    let Home::Tuning(tunable) = session::home(p) else {
+        return Ok(());
     };
     let rates = flexarm_sim::sim::Rates::default();
     let (piezo, motor) = (1.0 / rates.piezo_hz as f32, 1.0 / rates.motor_hz as f32);

@@ -92,6 +92,10 @@ enum Action {
         /// Replace files of the same name that no flexarm command wrote.
         #[arg(long)]
         force: bool,
+        /// The model file the firmware was built from (`cargo sim firmware-params`'s source),
+        /// which the recording carries for `compare`.
+        #[arg(long, default_value = "firmware/piezo.toml")]
+        model: PathBuf,
         /// The output folder.
         out: PathBuf,
         /// A move to start once the recording runs.
@@ -267,9 +271,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
     if let Action::Get { name } = &cli.command
         && name == "list"
     {
-        for (n, _, unit) in params::NAMES {
-            println!("{n} [{unit}]");
-        }
+        print!("{}", params::list());
         return Ok(());
     }
     // Offline: a recording against the simulator.
@@ -375,6 +377,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             seconds,
             decimation,
             force,
+            model,
             out,
             then,
         } => {
@@ -383,6 +386,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 &mut c,
                 seconds,
                 decimation,
+                &model,
                 mv.map(|(_, m)| m),
                 &mut |c: &mut Client| match mv {
                     Some((what, m)) => {

@@ -459,6 +459,16 @@ pub enum JointTrajectory<T> {
 }
 
 impl<T: Real> JointTrajectory<T> {
+    /// The time from which it holds its end pose [s] (0 for a hold).
+    pub fn duration(&self) -> T {
+        match self {
+            Self::Hold(_) => T::zero(),
+            Self::Trapezoid(tr) => tr.profile.duration(),
+            Self::Circle(c) => c.profile.duration(),
+            Self::Cubic(c) => c.duration,
+        }
+    }
+
     /// Desired joint motion at `t` [s] since the start.
     #[inline(always)]
     pub fn sample(&self, t: T) -> JointTarget<T> {

@@ -15,6 +15,7 @@ pub mod montecarlo;
 pub mod outdir;
 pub mod output;
 pub mod plant;
+pub mod rig;
 pub mod scenario;
 pub mod sim;
 pub mod spillover;

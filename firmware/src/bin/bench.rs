@@ -18,6 +18,9 @@
 //! exits non-zero on a regression or a failed calibration.
 #![no_std]
 #![no_main]
+// The counter register and the timed region's `asm!` barriers (the register code: the
+// workspace's lints deny `unsafe` everywhere else).
+#![allow(unsafe_code)]
 
 use core::hint::black_box;
 
@@ -32,7 +35,6 @@ use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::params::{ArmParams, Gains, Limits};
-use flexarm_core::simarm::{SensorModel, SimArm};
 use flexarm_core::trajectory::{JointTarget, JointTrajectory, Trapezoid};
 use flexarm_core::{Vector2, Vector4};
 
@@ -371,9 +373,12 @@ fn controller(law: MotorLaw) -> Controller<f32> {
     )
 }
 
-/// 200 states along the paper's move: the simulated arm (1 kHz motor, 10 kHz piezo) under the
-/// complete controller, one state every 25 ms.
+/// 200 states along the paper's move: the hardware board's firmware (1 kHz motor, 10 kHz piezo;
+/// `flexarm_machine::period::board_period`, the drive running the move) on the QEMU board's
+/// simulated arm, one state every 25 ms.
 fn recorded() -> [State; N] {
+    use flexarm_machine::period::{Control, MotorLoop, board_period};
+    use flexarm_machine::simulated::SimulatedArm;
     let mut out = [State {
         t: 0.0,
         q: Vector4::zeros(),
@@ -384,38 +389,49 @@ fn recorded() -> [State; N] {
             v_f: 0.0,
         },
     }; N];
-    let mut ctrl = controller(MotorLaw::Tracking);
-    let patch = PiezoPatch::<f32>::paper();
-    let mut arm = SimArm::new(
-        Model::new(ArmParams::default()),
-        patch,
-        Vector4::zeros(),
-        SensorModel::default(),
+    let cfg = flexarm_machine::BoardConfig::for_board(
+        flexarm_link::msg::Board::Hardware,
+        ArmParams::default(),
+        PiezoPatch::paper(),
+        30.0,
+        GAIN_1KHZ,
     );
+    let mut arm = SimulatedArm::paper(cfg.patch, Vector4::zeros(), cfg.piezo_period());
+    let mut control = Control::new(controller(MotorLaw::Tracking));
+    let now = flexarm_core::time::Ticks(0);
+    let mut drive = cfg.drive(&mut control.ctrl, now);
+    let mut motor = MotorLoop::new(&cfg, now);
     let traj = Trapezoid::<f32>::paper();
+    let started = drive.arm(&mut control.ctrl, now).and_then(|()| {
+        let boot = flexarm_core::drive::MoveRequest::Trapezoid {
+            target: traj.start + traj.amplitude,
+            move_time: traj.profile.duration(),
+            ramp_time: traj.profile.ramp(),
+        };
+        drive.start(&mut control.ctrl, now, &boot)
+    });
+    if started.is_err() {
+        defmt::error!("the drive refused the paper's move");
+    }
     let mut i = 0;
     for k in 0..5000u32 {
-        let t = k as f32 * 1e-3;
-        for _ in 0..10 {
-            let v_a = ctrl.piezo_step(arm.film_voltage());
-            arm.set_piezo(v_a);
-            arm.step(1e-4);
-        }
-        let y = Measurement {
-            theta: arm.encoders(),
-            v_f: arm.film_voltage(),
-        };
-        let rep = ctrl.motor_step(t, Some(&y));
-        arm.set_torques(rep.command.tau);
-        arm.set_enable(rep.command.enable);
+        let p = board_period(
+            &mut arm,
+            &mut control,
+            &mut drive,
+            &mut motor,
+            10,
+            |_, _| {},
+        );
         if k % 25 == 0 && i < N {
-            let (q, qd) = ctrl.estimate();
+            let t = k as f32 * 1e-3;
+            let (q, qd) = control.ctrl.estimate();
             out[i] = State {
                 t,
                 q,
                 qd,
                 target: traj.sample(t),
-                y,
+                y: p.y,
             };
             i += 1;
         }
