@@ -10,6 +10,7 @@ pub mod actuators;
 pub mod cli;
 pub mod firmware_params;
 pub mod identify;
+pub mod lab;
 pub mod montecarlo;
 pub mod outdir;
 pub mod output;

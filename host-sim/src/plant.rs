@@ -25,6 +25,13 @@ pub trait Plant {
     /// Advances by `dt` [s] with the motor torque commands `tau` [N·m] and the piezo amplifier
     /// command `v_a` [V] held.
     fn step(&mut self, tau: &Vector2<f64>, v_a: f64, dt: f64) -> Result<(), Diverged>;
+    /// A hammer's strike: an impulse `p` [N·s] across link 2 at its tip, counter-clockwise
+    /// positive. The generalized impulse is `p (a1 cos θ2 + a2, a2, φ_1(a2) … φ_N(a2))` and the
+    /// rates jump by `B(q)⁻¹` of it. `false` when the plant cannot take one (the controller's
+    /// own model: [`ModelPlant`]).
+    fn strike(&mut self, _p: f64) -> bool {
+        false
+    }
 }
 
 /// The controller's own model as the plant: ideal torque sources, an ideal amplifier (the

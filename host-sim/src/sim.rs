@@ -154,7 +154,8 @@ impl Sensors {
         }
     }
 
-    fn film(&self, v: f64, rng: &mut Rng) -> f64 {
+    /// The film ADC's reading of the voltage `v` [V], its noise drawn from `rng`.
+    pub fn film(&self, v: f64, rng: &mut Rng) -> f64 {
         let v = v + self.film_noise * rng.normal();
         match self.adc_bits {
             Some(bits) => {

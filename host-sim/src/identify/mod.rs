@@ -10,6 +10,7 @@
 //! - [`report`], [`workflow`]: the reports and the `cargo sim identify` steps.
 
 pub mod decay;
+pub mod family;
 pub mod frf;
 pub mod friction;
 pub mod inertia;
