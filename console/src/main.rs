@@ -486,9 +486,16 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     let film_range =
                         f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
                     workflow::save_record(staging, "modes", &trace).map_err(ConsoleError::Io)?;
-                    workflow::save_modes(staging, &trace, film_range, window, None, true)
-                        .map_err(ConsoleError::Failed)?
-                        .1
+                    workflow::save_modes(
+                        staging,
+                        ("The modes experiment over the link", &trace),
+                        (film_range, window),
+                        &flexarm_sim::identify::modal::FitSettings::default(),
+                        None,
+                        true,
+                    )
+                    .map_err(ConsoleError::Failed)?
+                    .1
                 }
                 "decay" => {
                     use flexarm_sim::identify::decay;

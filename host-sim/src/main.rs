@@ -106,6 +106,18 @@ enum Command {
         /// Length of the modes experiment's record [s].
         #[arg(long, default_value_t = 60.0)]
         seconds: f64,
+        /// `modes`, `model`: the band fitted, `LOW,HIGH` [Hz] (default: what the record's inputs cover).
+        #[arg(long, value_delimiter = ',', num_args = 2)]
+        band: Option<Vec<f64>>,
+        /// `modes`, `model`: the controller's modes, numbered from 1 upwards among those found (default 1,2).
+        #[arg(long, value_delimiter = ',', num_args = 2)]
+        keep: Option<Vec<usize>>,
+        /// `modes`, `model`: most modes the stabilization diagram makes room for.
+        #[arg(long, default_value_t = 8)]
+        max_modes: usize,
+        /// `modes`, `model`: Welch's segment for a stationary record [s] (default: from the record).
+        #[arg(long)]
+        segment: Option<f64>,
         /// Cruise speeds [rad/s], both directions each.
         #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::identify::SPEEDS)]
         speeds: Vec<f64>,
@@ -440,6 +452,10 @@ fn main_result(cli: Cli) -> Result<()> {
             inertia_record,
             record,
             seconds,
+            band,
+            keep,
+            max_modes,
+            segment,
             speeds,
             cruise,
             out,
@@ -489,6 +505,20 @@ fn main_result(cli: Cli) -> Result<()> {
                 &flexarm_core::params::ArmParams::default(),
                 &flexarm_core::control::piezo::PiezoPatch::paper(),
             );
+            if !(1..=12).contains(&max_modes) {
+                return Err(format!("--max-modes {max_modes}: give 1 to 12"));
+            }
+            if let Some(s) = segment
+                && !(s.is_finite() && s > 0.0)
+            {
+                return Err(format!("--segment {s}: give a length in seconds > 0"));
+            }
+            let fit_set = flexarm_sim::identify::modal::FitSettings {
+                band: band.map(|b| (b[0], b[1])),
+                keep: keep.unwrap_or_else(|| vec![1, 2]),
+                max_modes,
+                segment,
+            };
             let report = match (experiment.as_str(), &record) {
                 ("model", _) => {
                     let (Some(m), Some(i)) = (&modes_record, &inertia_record) else {
@@ -496,7 +526,7 @@ fn main_result(cli: Cli) -> Result<()> {
                     };
                     workflow::model_from_records(&b, m, i, nominal)?
                 }
-                ("modes", r) => workflow::modes_step(&b, r.as_deref(), seconds)?.1,
+                ("modes", r) => workflow::modes_step(&b, r.as_deref(), seconds, &fit_set)?.1,
                 ("inertia", r) => workflow::inertia_step(&b, r.as_deref())?.1,
                 ("decay", r) => {
                     let models: Vec<workflow::Model> = model

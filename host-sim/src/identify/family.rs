@@ -157,11 +157,11 @@ pub enum Kind {
     ChirpLinear,
     /// A logarithmic chirp on the patch, 0.1–60 Hz in 60 s.
     ChirpLog,
-    /// Taps of the patch, 20 ms each, 15 s apart.
+    /// Taps of the patch, 20 ms each, 20 s apart.
     PatchTaps,
-    /// Torque pulses on joint 2, 20 ms each, 15 s apart.
+    /// Torque pulses on joint 2, 20 ms each, 20 s apart.
     TorqueTaps,
-    /// A hammer's strikes across the tip, 15 s apart.
+    /// A hammer's strikes across the tip, 20 s apart.
     HammerTaps,
     /// Band-limited noise on the patch and on joint 2 at once, independent, 0.1–60 Hz, 120 s.
     Random,
@@ -201,9 +201,9 @@ impl Kind {
             log,
         };
         let taps = Shape::Taps {
-            count: 6,
+            count: 5,
             width: 0.02,
-            spacing: 15.0,
+            spacing: 20.0,
         };
         let one = |actuator, shape, amplitude| Excite {
             actuator,

@@ -11,13 +11,16 @@
 
 pub mod decay;
 pub mod family;
-pub mod frf;
 pub mod friction;
 pub mod inertia;
+pub mod modal;
 pub mod model;
 pub mod modes;
+pub mod order;
 pub mod rational;
+pub mod record;
 pub mod report;
+pub mod spectra;
 pub mod workflow;
 
 pub use friction::*;

@@ -21,7 +21,7 @@ use flexarm_core::params::{ArmParams, ModalData};
 
 use super::IdentifyError;
 use super::inertia::Rigid;
-use super::modes::IdentifiedMode;
+use super::modal::IdentifiedMode;
 
 /// The controller's model from the fits, on the `nominal` arm and patch (lengths, patch
 /// place and constants, the shapes' signs).

@@ -10,8 +10,10 @@ use flexarm_core::params::ArmParams;
 
 use super::decay::{self, DecayFit, DecayPlan, DecaySettings};
 use super::inertia::{self, InertiaFit, InertiaPlan, Rigid};
+use super::modal::{self, FitSettings, ModesFit};
 use super::model::{self, closed_loop, identified_model};
-use super::modes::{self, FitSettings, ModesFit, ModesPlan, ModesRecord};
+use super::modes::{self, ModesPlan};
+use super::record::ModesRecord;
 use super::report;
 use crate::output::{read_csv, trace_csv};
 use crate::sim::{Sample, SimConfig};
@@ -59,11 +61,13 @@ fn record_or_run(
     }
 }
 
-/// The modes step: `modes.md`, `modes_frf.csv`, `modes.svg` (and the record when simulated).
+/// The modes step: `modes.md`, `modes_frf.csv`, `modes_stability.csv`, `modes.svg` (and the
+/// record when simulated).
 pub fn modes_step(
     b: &Bench,
     record: Option<&Path>,
     seconds: f64,
+    set: &FitSettings,
 ) -> Result<(ModesFit, String), String> {
     let plan = ModesPlan {
         seconds,
@@ -75,45 +79,44 @@ pub fn modes_step(
         f64::from(b.cfg.limits.v_a_max),
     );
     let truth = b.known.then_some((&b.cfg.arm, &b.cfg.patch));
+    let source = match record {
+        Some(p) => format!("The record {}", p.display()),
+        None => format!(
+            "The modes experiment on the simulator ({seconds} s at (0, π/2) rad: blocks of the patch's bias stepping at random and of joint 2 moving about the pose)"
+        ),
+    };
     save_modes(
         b.dir,
-        &trace,
-        b.cfg.sensors.adc_range,
-        window,
+        (&source, &trace),
+        (b.cfg.sensors.adc_range, window),
+        set,
         truth,
         b.plots,
     )
     .map_err(naming(record))
 }
 
-/// Fits the modes record `trace` (film ADC range `±v_f_range` [V], amplifier window [V]) and
-/// writes `modes.md`, `modes_frf.csv` and, with `plots`, `modes.svg` into `dir`; the band's top
-/// is 45 Hz or 0.4 of the record's rate, whichever is lower. Returns the fit and the report.
+/// Fits the record `trace` (described by `source`; film ADC range `±v_f_range` [V],
+/// amplifier window [V]) with `set` and writes `modes.md`, `modes_frf.csv`,
+/// `modes_stability.csv` and, with `plots`, `modes.svg` into `dir`. Returns the fit and the
+/// report.
 pub fn save_modes(
     dir: &Path,
-    trace: &[Sample],
-    v_f_range: f64,
-    v_a_window: (f64, f64),
+    (source, trace): (&str, &[Sample]),
+    (v_f_range, v_a_window): (f64, (f64, f64)),
+    set: &FitSettings,
     truth: Option<(&ArmParams<f64>, &PiezoPatch<f64>)>,
     plots: bool,
 ) -> Result<(ModesFit, String), String> {
     let rec = ModesRecord::from_trace(trace, v_f_range, v_a_window).map_err(|e| e.to_string())?;
-    let d = FitSettings::default();
-    let set = FitSettings {
-        band: (d.band.0, d.band.1.min(0.4 / rec.dt)),
-        ..d
-    };
-    let fit = modes::fit_modes(&rec, &set).map_err(|e| e.to_string())?;
+    let fit = modal::fit_modes(&rec, set).map_err(|e| e.to_string())?;
     let text = format!(
-        "# The link's modes\n\nJoints held at (0, π/2) rad; blocks of the patch's bias stepping at random and of joint 2 moving about the pose; Welch's H1 over {} segments of {} s (Hann, half overlap), a common-denominator fit in {}–{:.0} Hz (`docs/identification.md`).\n\n{}",
-        fit.frf.segments,
-        set.segment,
-        set.band.0,
-        set.band.1,
+        "# The link's modes\n\n{source}: a common-denominator fit of its spectra, the modes from a stabilization diagram (`docs/identification.md`).\n\n{}",
         report::modes_report(&fit, truth)
     );
     write(dir, "modes.md", &text)?;
     write(dir, "modes_frf.csv", &report::frf_csv(&fit))?;
+    write(dir, "modes_stability.csv", &report::stability_csv(&fit))?;
     if plots {
         report::frf_figure(&dir.join("modes.svg"), &fit)
             .map_err(|e| format!("cannot draw the figure: {e}"))?;
@@ -210,7 +213,7 @@ pub fn all(
     seconds: f64,
 ) -> Result<String, String> {
     let f_text = friction_step(b, &super::SPEEDS, super::CRUISE)?;
-    let (modes, m_text) = modes_step(b, None, seconds)?;
+    let (modes, m_text) = modes_step(b, None, seconds, &FitSettings::default())?;
     let (inertia, i_text) = inertia_step(b, None)?;
     let (arm, patch) = write_model(b, nominal, &modes, &inertia)?;
     let check = SimConfig {
@@ -252,7 +255,7 @@ pub fn model_from_records(
     inertia_record: &Path,
     nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
 ) -> Result<String, String> {
-    let (modes, m_text) = modes_step(b, Some(modes_record), 0.0)?;
+    let (modes, m_text) = modes_step(b, Some(modes_record), 0.0, &FitSettings::default())?;
     let (inertia, i_text) = inertia_step(b, Some(inertia_record))?;
     write_model(b, nominal, &modes, &inertia)?;
     Ok(format!("{m_text}\n{i_text}"))
