@@ -157,6 +157,8 @@ pub enum Kind {
     ChirpLinear,
     /// A logarithmic chirp on the patch, 0.1–60 Hz in 60 s.
     ChirpLog,
+    /// The logarithmic chirp with band-limited noise on joint 2's torque at once, 0.1–60 Hz.
+    ChirpNoise,
     /// Taps of the patch, 20 ms each, 20 s apart.
     PatchTaps,
     /// Torque pulses on joint 2, 20 ms each, 20 s apart.
@@ -169,9 +171,10 @@ pub enum Kind {
 
 impl Kind {
     /// Every kind.
-    pub const ALL: [Kind; 6] = [
+    pub const ALL: [Kind; 7] = [
         Kind::ChirpLinear,
         Kind::ChirpLog,
+        Kind::ChirpNoise,
         Kind::PatchTaps,
         Kind::TorqueTaps,
         Kind::HammerTaps,
@@ -183,6 +186,7 @@ impl Kind {
         match self {
             Kind::ChirpLinear => "chirp",
             Kind::ChirpLog => "log-chirp",
+            Kind::ChirpNoise => "chirp+noise",
             Kind::PatchTaps => "patch-taps",
             Kind::TorqueTaps => "torque-taps",
             Kind::HammerTaps => "hammer",
@@ -210,27 +214,32 @@ impl Kind {
             shape,
             amplitude,
         };
+        let noise = |seed, seconds| Shape::Random {
+            from: band.0,
+            to: band.1,
+            seconds,
+            seed,
+        };
         let (excite, tail) = match self {
             Kind::ChirpLinear => (vec![one(Actuator::Patch, chirp(false), 100.0)], 20.0),
             Kind::ChirpLog => (vec![one(Actuator::Patch, chirp(true), 100.0)], 20.0),
+            Kind::ChirpNoise => (
+                vec![
+                    one(Actuator::Patch, chirp(true), 100.0),
+                    one(Actuator::Motor(1), noise(5, 60.0), 2.0),
+                ],
+                20.0,
+            ),
             Kind::PatchTaps => (vec![one(Actuator::Patch, taps, 100.0)], 0.0),
             Kind::TorqueTaps => (vec![one(Actuator::Motor(1), taps, 2.0)], 0.0),
             Kind::HammerTaps => (vec![one(Actuator::Hammer, taps, 0.05)], 0.0),
-            Kind::Random => {
-                let noise = |seed| Shape::Random {
-                    from: band.0,
-                    to: band.1,
-                    seconds: 120.0,
-                    seed,
-                };
-                (
-                    vec![
-                        one(Actuator::Patch, noise(3), 100.0),
-                        one(Actuator::Motor(1), noise(5), 2.0),
-                    ],
-                    0.0,
-                )
-            }
+            Kind::Random => (
+                vec![
+                    one(Actuator::Patch, noise(3, 120.0), 100.0),
+                    one(Actuator::Motor(1), noise(5, 120.0), 2.0),
+                ],
+                0.0,
+            ),
         };
         Plan {
             cfg: *bench,

@@ -20,9 +20,10 @@
 //! - the base, when the joints travel at least [`MIN_TRAVEL`] encoder steps *and* something
 //!   other than the patch moved them: with the patch the only excitation, the base's motion is
 //!   the patch's response through the hold and the two inputs cannot be told apart (a fit
-//!   with both would split the response between them at will). Where Welch's averages allow,
-//!   the inputs' coherence tells; a transient record's base is an input when the patch did not
-//!   move (torque taps: the base is the only input).
+//!   with both would split the response between them at will). The share of the base's power
+//!   the patch explains (their coherence over 20 of Welch's segments of the record, weighted
+//!   by the base's power) must stay under [`MAX_EXPLAINED`]; without the patch the base is the
+//!   only input (torque taps).
 //!
 //! Without the base the modes are the held arm's, and the report and the model step say so.
 //!
@@ -268,7 +269,11 @@ pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, Ident
         [a, b] if a > 0.0 && b > 0.0 => a.min(b),
         [a, b] => a.max(b),
     };
-    let travel = record::travel_counts(&alpha);
+    let travel = if lsb > 0.0 {
+        (record::span(alpha.iter().copied()) / lsb).round()
+    } else {
+        0.0
+    };
     let patch = record::span(rec.v_a.iter().copied()) > 0.0;
     let base_moves = travel >= MIN_TRAVEL;
     if !patch && !base_moves {
@@ -303,31 +308,28 @@ pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, Ident
         )
     });
     if inputs.len() == 2 {
-        let share = match layout {
-            Layout::Stationary => {
-                let probe = spectra::welch(
-                    &rec.v_f,
-                    &[&rec.v_a, &alpha],
-                    dt,
-                    welch_len(n, 2),
-                    (0.0, top),
-                )?;
-                base_explained(&probe)
-            }
-            // One excitation, the patch's, in bursts or taps: the base follows it.
-            _ => 1.0,
-        };
-        if share > MAX_EXPLAINED {
+        // How much of the base's motion the patch explains, from Welch's averages of the
+        // record (20 segments: a coherence that means something).
+        let probe = spectra::welch(
+            &rec.v_f,
+            &[&rec.v_a, &alpha],
+            dt,
+            welch_len(n, 2),
+            (0.0, top),
+        )?;
+        let (share, own) = base_explained(&probe, lsb, dt);
+        if share > MAX_EXPLAINED || own < MIN_OWN_MOTION {
             inputs.pop();
-            held = Some(format!(
-                "the base moved with the patch ({:.0} % of its motion's power is the patch's{}): the two cannot be told apart, so the base is not an input",
-                100.0 * share,
-                if layout == Layout::Stationary {
-                    ""
-                } else {
-                    ", the patch being the record's one excitation"
-                }
-            ));
+            held = Some(if share > MAX_EXPLAINED {
+                format!(
+                    "the base moved with the patch ({:.0} % of its motion's power is the patch's): the two cannot be told apart, so the base is not an input",
+                    100.0 * share
+                )
+            } else {
+                format!(
+                    "the base's motion apart from the patch's is {own:.3} of a white quantization noise (at least {MIN_OWN_MOTION}): nothing but the patch and the hold's jitter moved it, so it is not an input"
+                )
+            });
         }
     }
     if let Some(h) = &held {
@@ -537,6 +539,13 @@ pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, Ident
 const RESOLVE_PERIODS: f64 = 100.0;
 /// Share of the base's motion the patch may explain for the base to stay an input.
 const MAX_EXPLAINED: f64 = 0.9;
+/// The base's own motion (the power the patch does not explain) over a white quantization
+/// noise of `lsb²/12` a sample, at least, for the base to stay an input: a hold's jitter of a
+/// count or two is not an excitation the fit can use. That floor overstates a slowly moving
+/// encoder's noise, whose errors are not white: on the family a PD hold's jitter under a
+/// patch's chirp gives 0.004 to 0.02 of it, noise of 2 N·m on joint 2's torque 0.57 to 0.68;
+/// the threshold sits between.
+const MIN_OWN_MOTION: f64 = 0.1;
 
 /// Welch's segment for `n` samples and `m` inputs: the longest that still gives
 /// `10 m` averages with half overlap, so that the coherence means something (`spectra`).
@@ -546,23 +555,37 @@ fn welch_len(n: usize, m: usize) -> usize {
 }
 
 /// The share of the base's power the patch explains, `Σ |G_12|²/G_11 / Σ G_22` over the
-/// band's lines (1, "all of it", without the averages to tell: `spectra`).
-fn base_explained(sp: &Spectra) -> f64 {
+/// lines, and the base's power the patch does not explain over the encoders' quantization
+/// floor, from Welch's spectra `sp` of the patch and the base (1 and 0 without the averages
+/// to tell: `spectra`).
+fn base_explained(sp: &Spectra, lsb: f64, dt: f64) -> (f64, f64) {
     if sp.averages < spectra::COHERENCE_AVERAGES_PER_INPUT * 2 {
-        return 1.0;
+        return (1.0, 0.0);
     }
+    let floor = Floor::of(sp, lsb, dt);
     // Welch's rows are G_{y u_j}, G_{u_i u_j} scaled by 1/√G_jj (`spectra`).
-    let (mut explained, mut total) = (0.0, 0.0);
-    for rows in sp.rows.iter().filter(|r| r.len() == 2) {
+    let (mut explained, mut total, mut noise) = (0.0, 0.0, 0.0);
+    for (rows, f) in sp.rows.iter().zip(&sp.freq) {
+        if rows.len() != 2 {
+            continue;
+        }
         let g11 = rows[0].u[0].re.powi(2);
         let g22 = rows[1].u[1].re.powi(2);
         let g12 = rows[1].u[0] * rows[1].u[1].re;
         if g11 > 0.0 {
             explained += g12.norm_sqr() / g11;
             total += g22;
+            noise += floor.at(*f);
         }
     }
-    if total > 0.0 { explained / total } else { 1.0 }
+    if total > 0.0 {
+        (
+            explained / total,
+            (total - explained) / noise.max(f64::MIN_POSITIVE),
+        )
+    } else {
+        (1.0, 0.0)
+    }
 }
 
 /// The band the record's excitation covers (module docs): the patch's when it moves, else
@@ -692,10 +715,11 @@ fn finish(
     let mut all = Vec::new();
     for m in &found {
         let hz = m.omega / tau;
-        if !sel
-            .modes_hz
-            .iter()
-            .any(|f| (f / hz - 1.0).abs() < 2.0 * order::F_TOL)
+        if m.zeta <= 0.0
+            || !sel
+                .modes_hz
+                .iter()
+                .any(|f| (f / hz - 1.0).abs() < 2.0 * order::F_TOL)
         {
             continue;
         }
@@ -761,6 +785,15 @@ fn finish(
                 "every piezo→film product comes out negative: the film's sign is reversed (run `flexarm bringup`, or flip the recording's v_f)".into(),
             ));
         }
+        // A collocated patch and film make every mode's product `k_a k_s Δφ'²` positive:
+        // a pole pair with a negative one is the fit's, not the link's.
+        let artefacts = all.iter().filter(|m| m.piezo_film <= 0.0).count();
+        if artefacts > 0 {
+            notes.push(format!(
+                "{artefacts} pole pair(s) with a negative piezo→film product left out (a collocated patch and film make it positive: the fit's, not the link's)"
+            ));
+        }
+        all.retain(|m| m.piezo_film > 0.0);
     }
     let list = all
         .iter()

@@ -149,12 +149,13 @@ pub fn check_channels(rec: &ModesRecord) -> Result<(), IdentifyError> {
 }
 
 /// An encoder's step [rad] as the record shows it: the smallest change between two samples
-/// (0 when the angle never changes).
+/// (0 when the angle never changes); changes under 1 µrad are the trace's rounding (eight
+/// significant digits), not a step.
 pub fn resolution(theta: &[f64]) -> f64 {
     let step = theta
         .windows(2)
         .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 1e-12)
+        .filter(|d| *d > 1e-6)
         .fold(f64::INFINITY, f64::min);
     if step.is_finite() { step } else { 0.0 }
 }
