@@ -93,6 +93,10 @@ enum Command {
         /// `decay`: a model file (`model.toml`) whose prediction of the decay is checked too.
         #[arg(long)]
         model: Option<PathBuf>,
+        /// The arm's geometry (TOML: lengths, payload, patch place and constants, the board's
+        /// ranges; docs/identification.md); default the paper's arm on the project's board.
+        #[arg(long)]
+        arm: Option<PathBuf>,
         /// `model`: the modes experiment's record (`flexarm identify modes`).
         #[arg(long)]
         modes_record: Option<PathBuf>,
@@ -448,6 +452,7 @@ fn main_result(cli: Cli) -> Result<()> {
         Command::Identify {
             experiment,
             model,
+            arm,
             modes_record,
             inertia_record,
             record,
@@ -493,6 +498,15 @@ fn main_result(cli: Cli) -> Result<()> {
                 }
                 None => None,
             };
+            let geometry = match &arm {
+                Some(p) => {
+                    let text = std::fs::read_to_string(p)
+                        .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
+                    flexarm_sim::identify::geometry::Geometry::parse(&text)
+                        .map_err(|e| flexarm_beam::config::at_line(p, &text, &e))?
+                }
+                None => flexarm_sim::identify::geometry::Geometry::default(),
+            };
             use flexarm_sim::identify::workflow;
             let dir = OutDir::open(&out, "identify", force)?;
             let b = workflow::Bench {
@@ -500,6 +514,7 @@ fn main_result(cli: Cli) -> Result<()> {
                 known: truth.is_some(),
                 dir: dir.staging(),
                 plots: !no_plots,
+                geometry: &geometry,
             };
             let nominal = (
                 &flexarm_core::params::ArmParams::default(),
@@ -524,7 +539,7 @@ fn main_result(cli: Cli) -> Result<()> {
                     let (Some(m), Some(i)) = (&modes_record, &inertia_record) else {
                         return Err("model: give both --modes-record and --inertia-record".into());
                     };
-                    workflow::model_from_records(&b, m, i, nominal)?
+                    workflow::model_from_records(&b, m, i, nominal.0, &fit_set)?
                 }
                 ("modes", r) => workflow::modes_step(&b, r.as_deref(), seconds, &fit_set)?.1,
                 ("inertia", r) => workflow::inertia_step(&b, r.as_deref())?.1,

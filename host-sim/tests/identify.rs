@@ -139,7 +139,6 @@ fn no_friction_is_found_where_there_is_none() {
 }
 
 mod modes_and_model {
-    use flexarm_core::control::piezo::PiezoPatch;
     use flexarm_core::params::ArmParams;
     use flexarm_sim::identify::IdentifyError;
     use flexarm_sim::identify::inertia::{InertiaPlan, Rigid, fit_inertia, inertia_experiment};
@@ -201,9 +200,13 @@ mod modes_and_model {
             println!("{name}: {:+.3e}", x / t - 1.0);
             assert!((x / t - 1.0).abs() < 0.05, "{name}");
         }
-        let nominal = (ArmParams::default(), PiezoPatch::paper());
-        let (arm, patch) =
-            identified_model(&nominal.0, &nominal.1, &inertia.rigid, &fit.modes).unwrap();
+        let (arm, patch, _) = identified_model(
+            &flexarm_sim::identify::geometry::Geometry::default(),
+            &ArmParams::default(),
+            &inertia.rigid,
+            &fit,
+        )
+        .unwrap();
         let check = SimConfig {
             piezo: Some(CHECK_PIEZO),
             ..cfg

@@ -62,6 +62,32 @@ impl Rigid {
         }
     }
 
+    /// The gate `physical consistency`: `A`, `J`, `S` positive and the rigid mass matrix
+    /// `[[A + J + 2S cos θ2, J + S cos θ2], [J + S cos θ2, J]]` positive definite at every
+    /// `θ2`: its determinant is `A J − S² cos² θ2`, so `A J > S²`.
+    pub fn check(&self) -> Result<(), IdentifyError> {
+        let bad = |m: String| {
+            Err(IdentifyError::Data(format!(
+                "gate `physical consistency`: {m}"
+            )))
+        };
+        for (name, v) in [("A", self.a), ("J", self.j), ("S", self.s)] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!(
+                    "{name} = {v:.4e} kg·m²: an inertia must be positive (torques of the wrong sign, or a record that does not determine it)"
+                ));
+            }
+        }
+        if self.a * self.j <= self.s * self.s {
+            return bad(format!(
+                "A J = {:.4e} ≤ S² = {:.4e}: the rigid mass matrix would not be positive definite at θ2 = 0",
+                self.a * self.j,
+                self.s * self.s
+            ));
+        }
+        Ok(())
+    }
+
     /// `nominal` with its rigid parameters changed to give these combinations: `m2` from `S`
     /// (the lengths are measured), `I_h1` takes `A`'s change and `I_2x` `J`'s (only the sums
     /// enter; a part that would turn negative goes to `I_1` and `I_h2`).
@@ -90,7 +116,20 @@ pub struct InertiaFit {
     pub residual: f64,
     /// RMS of the fitted torques [N·m].
     pub torque_rms: f64,
+    /// The combinations' uncertainty [kg·m²]: half the difference of the record's two halves'
+    /// fits.
+    pub sigma: Rigid,
+    /// The column-scaled regressor's condition number.
+    pub condition: f64,
 }
+
+/// Encoder steps each joint must travel for the inertia fit.
+pub const MIN_TRAVEL: f64 = 200.0;
+/// The column-scaled regressor's condition number above which the record does not tell the
+/// parameters apart (the experiment's record: 9; a record where `θ2` barely moves: thousands).
+pub const MAX_CONDITION: f64 = 100.0;
+/// Relative uncertainty of a combination above which the fit is refused.
+pub const MAX_SPREAD: f64 = 0.1;
 
 /// The exciting motion's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -257,7 +296,7 @@ fn derivatives<const N: usize>(
 pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
     if trace.len() < 1000 {
         return Err(IdentifyError::Data(format!(
-            "the record holds {} samples: at least 1000 are needed",
+            "gate `record length`: the record holds {} samples: at least 1000 are needed",
             trace.len()
         )));
     }
@@ -271,8 +310,26 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
         .any(|v| !v.is_finite())
     {
         return Err(IdentifyError::Data(
-            "the record holds a value that is not a finite number".into(),
+            "gate `channels`: the record holds a value that is not a finite number".into(),
         ));
+    }
+    let excitation = |m: String| Err(IdentifyError::Data(format!("gate `excitation`: {m}")));
+    for (j, theta) in th.iter().enumerate() {
+        let torque = trace.iter().map(|s| s.tau[j]);
+        if super::record::span(torque) == 0.0 {
+            return excitation(format!(
+                "joint {}'s torque `tau{}` never changes (a disarmed board records zeros): the inertias cannot be seen",
+                j + 1,
+                j + 1
+            ));
+        }
+        let travel = super::record::travel_counts(theta);
+        if travel < MIN_TRAVEL {
+            return excitation(format!(
+                "joint {} moved {travel} encoder steps (at least {MIN_TRAVEL}): move both joints through the experiment's trapezoids",
+                j + 1
+            ));
+        }
     }
     let lowpass = |x: &[f64]| {
         let [y] = derivatives(x, dt, PASS, [0]);
@@ -324,21 +381,66 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
         b[2 * r] = tau[0][k];
         b[2 * r + 1] = tau[1][k];
     }
-    let x = a
-        .clone()
-        .svd(true, true)
-        .solve(&b, 1e-12)
-        .map_err(|e| IdentifyError::Data(format!("the inertia least squares: {e}")))?;
+    let solve = |a: &DMatrix<f64>, b: &DVector<f64>| {
+        a.clone()
+            .svd(true, true)
+            .solve(b, 1e-12)
+            .map_err(|e| IdentifyError::Data(format!("the inertia least squares: {e}")))
+    };
+    // The regressor's conditioning, columns scaled to unit norm.
+    let mut scaled = a.clone();
+    for mut c in scaled.column_iter_mut() {
+        let n = c.norm();
+        if n > 0.0 {
+            c /= n;
+        }
+    }
+    let sv = scaled.singular_values();
+    let condition = sv.max() / sv.min().max(f64::MIN_POSITIVE);
+    if condition.is_nan() || condition > MAX_CONDITION {
+        return Err(IdentifyError::Data(format!(
+            "gate `regressor condition`: the regressor's condition number is {condition:.3e} (at most {MAX_CONDITION}): the record's motion does not tell A, J, S and the friction apart (θ2 must swing widely, both joints move both ways at several speeds)"
+        )));
+    }
+    let x = solve(&a, &b)?;
+    // The record's two halves, fitted alone: their difference is the uncertainty.
+    let half = a.nrows() / 4 * 2;
+    let xa = solve(&a.rows(0, half).into_owned(), &b.rows(0, half).into_owned())?;
+    let xb = solve(
+        &a.rows(half, a.nrows() - half).into_owned(),
+        &b.rows(half, b.nrows() - half).into_owned(),
+    )?;
+    let sigma = Rigid {
+        a: (xa[0] - xb[0]).abs() / 2.0,
+        j: (xa[1] - xb[1]).abs() / 2.0,
+        s: (xa[2] - xb[2]).abs() / 2.0,
+    };
+    let rigid = Rigid {
+        a: x[0],
+        j: x[1],
+        s: x[2],
+    };
+    rigid.check()?;
+    for (name, v, s) in [
+        ("A", rigid.a, sigma.a),
+        ("J", rigid.j, sigma.j),
+        ("S", rigid.s, sigma.s),
+    ] {
+        if s > MAX_SPREAD * v {
+            return Err(IdentifyError::Data(format!(
+                "gate `uncertainty`: {name} = {v:.4e} ± {s:.1e} kg·m² (the record's halves disagree by more than {:.0} %): a longer record, or wider moves",
+                MAX_SPREAD * 100.0
+            )));
+        }
+    }
     let res = &b - &a * &x;
     let rms = |v: &DVector<f64>| (v.norm_squared() / v.len() as f64).sqrt();
     Ok(InertiaFit {
-        rigid: Rigid {
-            a: x[0],
-            j: x[1],
-            s: x[2],
-        },
+        rigid,
         friction: [(x[3], x[4]), (x[5], x[6])],
         residual: rms(&res),
         torque_rms: rms(&b),
+        sigma,
+        condition,
     })
 }

@@ -12,6 +12,7 @@
 pub mod decay;
 pub mod family;
 pub mod friction;
+pub mod geometry;
 pub mod inertia;
 pub mod modal;
 pub mod model;

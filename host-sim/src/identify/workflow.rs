@@ -9,6 +9,7 @@ use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::params::ArmParams;
 
 use super::decay::{self, DecayFit, DecayPlan, DecaySettings};
+use super::geometry::Geometry;
 use super::inertia::{self, InertiaFit, InertiaPlan, Rigid};
 use super::modal::{self, FitSettings, ModesFit};
 use super::model::{self, closed_loop, identified_model};
@@ -29,6 +30,8 @@ pub struct Bench<'a> {
     pub dir: &'a Path,
     /// Draw the figures.
     pub plots: bool,
+    /// The arm's geometry (lengths, payload, patch, transducers, the board's ranges).
+    pub geometry: &'a Geometry,
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> Result<(), String> {
@@ -40,6 +43,21 @@ fn naming(record: Option<&Path>) -> impl Fn(String) -> String + '_ {
     move |e| match record {
         Some(p) => format!("{}: {e}", p.display()),
         None => e,
+    }
+}
+
+/// The film ADC's range and the amplifier's window [V]: a record's the geometry's, the
+/// simulator's its own.
+fn ranges(b: &Bench, record: Option<&Path>) -> (f64, (f64, f64)) {
+    match record {
+        Some(_) => (b.geometry.film_range, b.geometry.amplifier_window),
+        None => (
+            b.cfg.sensors.adc_range,
+            (
+                f64::from(b.cfg.limits.v_a_min),
+                f64::from(b.cfg.limits.v_a_max),
+            ),
+        ),
     }
 }
 
@@ -74,10 +92,7 @@ pub fn modes_step(
         ..ModesPlan::default()
     };
     let trace = record_or_run(b, record, "modes", || modes::modes_experiment(b.cfg, &plan))?;
-    let window = (
-        f64::from(b.cfg.limits.v_a_min),
-        f64::from(b.cfg.limits.v_a_max),
-    );
+    let (range, window) = ranges(b, record);
     let truth = b.known.then_some((&b.cfg.arm, &b.cfg.patch));
     let source = match record {
         Some(p) => format!("The record {}", p.display()),
@@ -88,7 +103,7 @@ pub fn modes_step(
     save_modes(
         b.dir,
         (&source, &trace),
-        (b.cfg.sensors.adc_range, window),
+        (range, window),
         set,
         truth,
         b.plots,
@@ -186,22 +201,31 @@ pub fn friction_step(b: &Bench, speeds: &[f64], cruise: f64) -> Result<String, S
     super::save_friction(b.dir, &heading, &cruises, &fits, known, b.plots)
 }
 
-/// The controller's model from the fits on the `nominal` arm and patch, written to
-/// `model.toml`.
+/// The controller's model from the fits on the bench's geometry (the rest of the rigid parts
+/// from `nominal`), written to `model.toml`, with what the step assumed (`model.md`).
 fn write_model(
     b: &Bench,
-    nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
+    nominal: &ArmParams<f64>,
     modes: &ModesFit,
     inertia: &InertiaFit,
-) -> Result<(ArmParams<f64>, PiezoPatch<f64>), String> {
-    let (arm, patch) = identified_model(nominal.0, nominal.1, &inertia.rigid, &modes.modes)
-        .map_err(|e| e.to_string())?;
+) -> Result<(ArmParams<f64>, PiezoPatch<f64>, String), String> {
+    let (arm, patch, notes) = identified_model(b.geometry, nominal, &inertia.rigid, modes)
+        .map_err(|e| format!("the model from the modes and inertia fits: {e}"))?;
+    let text = format!(
+        "# The identified model\n\n{}\n",
+        notes
+            .iter()
+            .map(|n| format!("- {n}."))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    write(b.dir, "model.md", &text)?;
     write(
         b.dir,
         "model.toml",
         &model::model_fragment(&arm, &patch, CHECK_K_C),
     )?;
-    Ok((arm, patch))
+    Ok((arm, patch, text))
 }
 
 /// Every step on the simulator, from the `nominal` arm and patch a user starts from; then
@@ -215,7 +239,7 @@ pub fn all(
     let f_text = friction_step(b, &super::SPEEDS, super::CRUISE)?;
     let (modes, m_text) = modes_step(b, None, seconds, &FitSettings::default())?;
     let (inertia, i_text) = inertia_step(b, None)?;
-    let (arm, patch) = write_model(b, nominal, &modes, &inertia)?;
+    let (arm, patch, _) = write_model(b, nominal.0, &modes, &inertia)?;
     let check = SimConfig {
         piezo: Some(CHECK_PIEZO),
         ..*b.cfg
@@ -246,19 +270,24 @@ pub fn all(
     Ok(format!("{f_text}\n{m_text}\n{i_text}\n{v_text}\n{d_text}"))
 }
 
-/// The model from a board's records: the modes fit of `modes_record` and the inertia fit of
-/// `inertia_record` (trace CSVs, `flexarm identify modes|inertia`), on the `nominal` arm and
-/// patch; writes their reports and `model.toml`. Returns the report.
+/// The model from a board's records: the modes fit of `modes_record` (with `set`) and the
+/// inertia fit of `inertia_record` (trace CSVs, `flexarm identify modes|inertia` or any
+/// record of the kinds docs/identification.md lists), on the bench's geometry (the rest of
+/// the rigid parts from `nominal`); writes their reports and `model.toml`. An error names the
+/// fit it could not use. Returns the report.
 pub fn model_from_records(
     b: &Bench,
     modes_record: &Path,
     inertia_record: &Path,
-    nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
+    nominal: &ArmParams<f64>,
+    set: &FitSettings,
 ) -> Result<String, String> {
-    let (modes, m_text) = modes_step(b, Some(modes_record), 0.0, &FitSettings::default())?;
-    let (inertia, i_text) = inertia_step(b, Some(inertia_record))?;
-    write_model(b, nominal, &modes, &inertia)?;
-    Ok(format!("{m_text}\n{i_text}"))
+    let (modes, m_text) =
+        modes_step(b, Some(modes_record), 0.0, set).map_err(|e| format!("the modes fit: {e}"))?;
+    let (inertia, i_text) =
+        inertia_step(b, Some(inertia_record)).map_err(|e| format!("the inertia fit: {e}"))?;
+    let (_, _, model) = write_model(b, nominal, &modes, &inertia)?;
+    Ok(format!("{m_text}\n{i_text}\n{model}"))
 }
 
 /// A model the decay check predicts with: its name in the report, arm and patch.
@@ -287,14 +316,10 @@ pub fn decay_step(
         .known
         .then_some(("true parameters", b.cfg.arm, b.cfg.patch));
     let all: Vec<Model> = truth.into_iter().chain(models.iter().copied()).collect();
-    let window = (
-        f64::from(b.cfg.limits.v_a_min),
-        f64::from(b.cfg.limits.v_a_max),
-    );
     save_decay(
         b.dir,
         &trace,
-        (b.cfg.sensors.adc_range, window),
+        ranges(b, record),
         &plan,
         &board,
         &all,
