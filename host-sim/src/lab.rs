@@ -132,8 +132,47 @@ pub struct Excite {
     pub amplitude: f64,
 }
 
-/// A record's plan: the bench (`cfg`: plant, sensors, rates, limits), the pose held, the
-/// hold, the excitations, and the rest before and after them.
+/// A reference the hold tracks instead of holding still: each joint a multisine of `band` [Hz]
+/// (random phases) of peak `reach` [rad] about the pose, faded in and out over a second so
+/// that the record starts and ends at rest (an inertia record).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Track {
+    /// Each joint's peak excursion [rad].
+    pub reach: Vector2<f64>,
+    /// The band [Hz].
+    pub band: (f64, f64),
+    /// Length [s].
+    pub seconds: f64,
+    /// Seed of the phases (joint 2 takes the next).
+    pub seed: u64,
+}
+
+impl Track {
+    /// The reference's excursion from the pose, sampled every `dt` [s].
+    fn table(&self, dt: f64) -> [Vec<f64>; 2] {
+        let n = (self.seconds / dt).round() as usize;
+        let fade = (1.0 / dt) as usize;
+        [0, 1].map(|j| {
+            band_noise(n, dt, self.band, self.seed + j as u64, false)
+                .into_iter()
+                .enumerate()
+                .map(|(k, v)| {
+                    let edge = k.min(n - 1 - k.min(n - 1));
+                    let w = if edge < fade {
+                        0.5 - 0.5 * (std::f64::consts::PI * edge as f64 / fade as f64).cos()
+                    } else {
+                        1.0
+                    };
+                    self.reach[j] * v * w
+                })
+                .collect()
+        })
+    }
+}
+
+/// A record's plan: the bench (`cfg`: plant, sensors, rates, limits), the pose held (or a
+/// reference tracked about it), the hold, the excitations, and the rest before and after
+/// them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Plan {
     /// Plant, sensors, rates and limits (its controller settings are not used).
@@ -144,6 +183,8 @@ pub struct Plan {
     pub hold: Hold,
     /// The excitations, all starting after `lead`.
     pub excite: Vec<Excite>,
+    /// A reference the hold tracks, from `lead` on.
+    pub track: Option<Track>,
     /// Rest before the excitation [s].
     pub lead: f64,
     /// Rest after it [s].
@@ -273,6 +314,7 @@ impl Plan {
                 .excite
                 .iter()
                 .map(|e| e.shape.seconds())
+                .chain(self.track.map(|t| t.seconds))
                 .fold(0.0, f64::max)
             + self.tail
     }
@@ -325,6 +367,23 @@ pub fn record(plan: &Plan) -> Result<Vec<Sample>, String> {
             .map(|(_, table)| table.at(t - plan.lead))
             .sum()
     };
+    let reference = plan.track.map(|t| t.table(motor_dt));
+    let at = |t: f64| -> (Vector2<f64>, Vector2<f64>) {
+        let Some(r) = &reference else {
+            return (Vector2::zeros(), Vector2::zeros());
+        };
+        let k = ((t - plan.lead) / motor_dt).round();
+        let get = |j: usize, k: f64| {
+            if k < 0.0 {
+                0.0
+            } else {
+                r[j].get(k as usize).copied().unwrap_or(0.0)
+            }
+        };
+        let pos = Vector2::new(get(0, k), get(1, k));
+        let next = Vector2::new(get(0, k + 1.0), get(1, k + 1.0));
+        (pos, (next - pos) / motor_dt)
+    };
     let s = &cfg.sensors;
     let mut rng = Rng::new(s.seed);
     let alpha = 1.0 - (-std::f64::consts::TAU * plan.hold.speed_hz * motor_dt).exp();
@@ -360,8 +419,9 @@ pub fn record(plan: &Plan) -> Result<Vec<Sample>, String> {
                 speed += ((theta - prev) / motor_dt - speed) * alpha;
             }
             last = Some(theta);
-            let hold = plan.hold.kp.component_mul(&(plan.pose - theta))
-                - plan.hold.kd.component_mul(&speed);
+            let (r, r_dot) = at(t);
+            let hold = plan.hold.kp.component_mul(&(plan.pose + r - theta))
+                + plan.hold.kd.component_mul(&(r_dot - speed));
             let extra = Vector2::new(drive(Actuator::Motor(0), t), drive(Actuator::Motor(1), t));
             tau = (hold + extra).zip_map(&tau_max, |v, m| v.clamp(-m, m));
             let mut q = x.q;
@@ -370,7 +430,7 @@ pub fn record(plan: &Plan) -> Result<Vec<Sample>, String> {
             trace.push(Sample {
                 t,
                 x: State { q, qd: x.qd },
-                q_d: plan.pose,
+                q_d: plan.pose + r,
                 delta_seen: Vector2::zeros(),
                 tau,
                 v_a,

@@ -14,12 +14,21 @@
 //! Each keeps the truth plant's six modes, drives with friction, amplifiers and the film's
 //! 0.5 Hz high-pass, and a realistic board's sensors ([`Sensors::realistic`]).
 
+use std::path::Path;
+
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::params::ArmParams;
 
-use crate::lab::{Actuator, Excite, Hold, Plan, Shape};
-use crate::sim::{Sensors, SimConfig, StateSource};
+use super::geometry::Geometry;
+use super::inertia::{InertiaFit, Rigid, fit_inertia};
+use super::modal::{self, FitSettings, ModesFit};
+use super::model::{LoopRun, closed_loop, identified_model};
+use super::record::ModesRecord;
+use super::workflow::CHECK_PIEZO;
+use crate::lab::{self, Actuator, Excite, Hold, Plan, Shape, Track};
+use crate::output::{read_csv, trace_csv};
+use crate::sim::{Sample, Sensors, SimConfig, StateSource};
 use crate::truth_plant::TruthSpec;
 
 /// One arm of the family.
@@ -246,8 +255,259 @@ impl Kind {
             pose: Vector2::new(0.0, std::f64::consts::FRAC_PI_2),
             hold: Hold::default(),
             excite,
+            track: None,
             lead: 1.0,
             tail,
         }
     }
+}
+
+/// A lab's inertia record on `bench`: the hold tracks a multisine of 0.1–0.5 Hz on both
+/// joints (±0.3 rad and ±0.8 rad about `(0, 0.5)`, so that `cos θ2` varies), 60 s faded in
+/// and out.
+pub fn swing(bench: &SimConfig) -> Plan {
+    Plan {
+        cfg: *bench,
+        pose: Vector2::new(0.0, 0.5),
+        hold: Hold::default(),
+        excite: Vec::new(),
+        track: Some(Track {
+            reach: Vector2::new(0.3, 0.8),
+            band: (0.1, 0.5),
+            seconds: 60.0,
+            seed: 17,
+        }),
+        lead: 1.0,
+        tail: 1.0,
+    }
+}
+
+impl FamilyArm {
+    /// The arm's geometry as its user would write it (`--arm`): its lengths, payload, the
+    /// patch's place and the truth link's transducer constants, the realistic board's ranges.
+    pub fn geometry(&self) -> Result<Geometry, String> {
+        let (_, c) = self
+            .spec
+            .link(&self.rigid, &self.patch)
+            .map_err(|e| e.to_string())?;
+        Ok(Geometry {
+            a1: self.rigid.a1,
+            a2: self.rigid.a2,
+            tip_mass: self.spec.tip_mass,
+            tip_inertia: self.spec.tip_inertia,
+            x_a: self.patch.x_a,
+            l_a: self.patch.l_a,
+            k_a: c.k_a,
+            k_s: c.k_s,
+            ..Geometry::default()
+        })
+    }
+}
+
+/// A record made by the lab (sized to [`FILM_SHARE`] of the film's range), written by the
+/// simulator's trace writer into `dir` as `<arm>_<name>.csv` and read back as a user's file
+/// is; the file is removed after unless `keep`.
+pub fn lab_record(
+    dir: &Path,
+    (arm, name): (&str, &str),
+    plan: &Plan,
+    keep: bool,
+) -> Result<Vec<Sample>, String> {
+    let sized = lab::sized(plan, FILM_SHARE)?;
+    let trace = lab::record(&sized)?;
+    let path = dir.join(format!("{arm}_{name}.csv"));
+    std::fs::write(&path, trace_csv(&trace))
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    let back = read_csv(&path);
+    if !keep {
+        let _ = std::fs::remove_file(&path);
+    }
+    back
+}
+
+/// The share of the film ADC's range the lab's excitations are sized to.
+pub const FILM_SHARE: f64 = 0.4;
+
+/// One arm's identification from its lab's records.
+#[derive(Clone, Debug)]
+pub struct ArmResult {
+    /// The arm.
+    pub arm: FamilyArm,
+    /// Its true modes.
+    pub truth: Vec<TrueMode>,
+    /// Per kind of record, the modes fit (or its refusal).
+    pub modes: Vec<(Kind, Result<ModesFit, String>)>,
+    /// The inertia fit of its swing (or its refusal), and the true combinations.
+    pub inertia: (Result<InertiaFit, String>, Rigid),
+    /// The model from the first kind whose fit found the clamped modes, and its closed-loop
+    /// check (the true parameters' run first), or why not.
+    pub check: Result<(Kind, Vec<LoopRun>), String>,
+}
+
+/// Identifies `arm` from its lab's records of `kinds` and its swing, written into `dir` (and
+/// kept there with `keep`); the model from the first kind that found the clamped modes, and
+/// the closed-loop check of it on the truth plant.
+pub fn identify_arm(
+    arm: &FamilyArm,
+    kinds: &[Kind],
+    dir: &Path,
+    keep: bool,
+) -> Result<ArmResult, String> {
+    let bench = arm.bench()?;
+    let geometry = arm.geometry()?;
+    let truth = arm.modes()?;
+    let mut modes = Vec::new();
+    for &kind in kinds {
+        let trace = lab_record(dir, (arm.name, kind.name()), &kind.plan(&bench), keep)?;
+        let fit = ModesRecord::from_trace(&trace, geometry.film_range, geometry.amplifier_window)
+            .and_then(|rec| modal::fit_modes(&rec, &FitSettings::default()))
+            .map_err(|e| e.to_string());
+        modes.push((kind, fit));
+    }
+    let swing_trace = lab_record(dir, (arm.name, "swing"), &swing(&bench), keep)?;
+    let inertia = fit_inertia(&swing_trace).map_err(|e| e.to_string());
+    let check = (|| {
+        let (kind, fit) = modes
+            .iter()
+            .find_map(|(k, f)| {
+                f.as_ref()
+                    .ok()
+                    .filter(|f| f.held.is_none())
+                    .map(|f| (*k, f))
+            })
+            .ok_or("no record found the clamped modes")?;
+        let inertia = inertia
+            .as_ref()
+            .map_err(|e| format!("the inertia fit: {e}"))?;
+        let (a, p, _) = identified_model(&geometry, &bench.arm, &inertia.rigid, fit)
+            .map_err(|e| e.to_string())?;
+        let check = SimConfig {
+            piezo: Some(CHECK_PIEZO),
+            ..bench
+        };
+        let runs = closed_loop(&check, &[("identified model", a, p)]).map_err(|e| e.to_string())?;
+        Ok((kind, runs))
+    })();
+    Ok(ArmResult {
+        arm: arm.clone(),
+        truth,
+        modes,
+        inertia: (inertia, Rigid::of(&bench.arm)),
+        check,
+    })
+}
+
+/// The true mode nearest in frequency to `hz`, and its number (from 1).
+pub fn nearest(truth: &[TrueMode], hz: f64) -> Option<(usize, TrueMode)> {
+    truth
+        .iter()
+        .copied()
+        .enumerate()
+        .min_by(|a, b| {
+            (a.1.hz / hz)
+                .ln()
+                .abs()
+                .total_cmp(&(b.1.hz / hz).ln().abs())
+        })
+        .map(|(j, m)| (j + 1, m))
+}
+
+/// The family's tables (Markdown): every mode each kind of record found against the truth,
+/// the inertias, the closed-loop check.
+pub fn report(results: &[ArmResult]) -> String {
+    let pct = |x: f64, t: f64| format!("{:+.2} %", (x / t - 1.0) * 100.0);
+    let mut s = String::from(
+        "| arm | record | inputs | mode | f [Hz] | error f | ±σ f | ζ | error ζ | ±σ ζ | g | error g | ±σ g |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in results {
+        for (kind, fit) in &r.modes {
+            match fit {
+                Ok(f) => {
+                    let inputs = if f.held.is_some() {
+                        "patch (held arm)"
+                    } else {
+                        "patch, base"
+                    };
+                    for m in &f.all {
+                        let Some((j, t)) = nearest(&r.truth, m.hz()) else {
+                            continue;
+                        };
+                        let rel = |s: f64, x: f64| format!("{:.2} %", s / x * 100.0);
+                        s += &format!(
+                            "| {} | {} | {inputs} | {j} | {:.4} | {} | {} | {:.4} | {} | {} | {:.4e} | {} | {} |\n",
+                            r.arm.name,
+                            kind.name(),
+                            m.hz(),
+                            pct(m.hz(), t.hz),
+                            rel(m.sigma[0], m.omega),
+                            m.zeta,
+                            pct(m.zeta, t.zeta),
+                            rel(m.sigma[1], m.zeta),
+                            m.piezo_film,
+                            pct(m.piezo_film, t.gain),
+                            rel(m.sigma[2], m.piezo_film),
+                        );
+                    }
+                }
+                Err(e) => {
+                    s += &format!(
+                        "| {} | {} | — | refused: {} | | | | | | | | | |\n",
+                        r.arm.name,
+                        kind.name(),
+                        e.replace('|', "/")
+                    );
+                }
+            }
+        }
+    }
+    s += "\n| arm | A error | ±σ | J error | ±σ | S error | ±σ | condition |\n|---|---|---|---|---|---|---|---|\n";
+    for r in results {
+        let (fit, t) = &r.inertia;
+        match fit {
+            Ok(f) => {
+                let rel = |s: f64, x: f64| format!("{:.2} %", s / x * 100.0);
+                s += &format!(
+                    "| {} | {} | {} | {} | {} | {} | {} | {:.1} |\n",
+                    r.arm.name,
+                    pct(f.rigid.a, t.a),
+                    rel(f.sigma.a, t.a),
+                    pct(f.rigid.j, t.j),
+                    rel(f.sigma.j, t.j),
+                    pct(f.rigid.s, t.s),
+                    rel(f.sigma.s, t.s),
+                    f.condition
+                );
+            }
+            Err(e) => {
+                s += &format!(
+                    "| {} | refused: {} | | | | | | |\n",
+                    r.arm.name,
+                    e.replace('|', "/")
+                )
+            }
+        }
+    }
+    s += "\n| arm | model from | Eq. 37 ‖θ − θ_d‖ vs true | Eq. 37 ‖tip‖ vs true |\n|---|---|---|---|\n";
+    for r in results {
+        match &r.check {
+            Ok((kind, runs)) => {
+                let (t, m) = (runs[0].summary, runs[1].summary);
+                s += &format!(
+                    "| {} | {} | {} | {} |\n",
+                    r.arm.name,
+                    kind.name(),
+                    pct(m.l2_error, t.l2_error),
+                    pct(m.l2_tip, t.l2_tip)
+                );
+            }
+            Err(e) => {
+                s += &format!(
+                    "| {} | not built: {} | | |\n",
+                    r.arm.name,
+                    e.replace('|', "/")
+                )
+            }
+        }
+    }
+    s
 }
