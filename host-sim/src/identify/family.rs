@@ -21,9 +21,9 @@ use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::params::ArmParams;
 
 use super::geometry::Geometry;
-use super::inertia::{InertiaFit, Rigid, fit_inertia};
+use super::inertia::{InertiaFit, Rigid, fit_inertia, fit_inertia_flexible};
 use super::modal::{self, FitSettings, ModesFit};
-use super::model::{LoopRun, closed_loop, identified_model};
+use super::model::{LoopRun, closed_loop, coupling, identified_model};
 use super::record::ModesRecord;
 use super::workflow::CHECK_PIEZO;
 use crate::lab::{self, Actuator, Excite, Hold, Plan, Shape, Track};
@@ -262,19 +262,24 @@ impl Kind {
     }
 }
 
-/// A lab's inertia record on `bench`: the hold tracks a multisine of 0.1–0.5 Hz on both
-/// joints (±0.3 rad and ±0.8 rad about `(0, 0.5)`, so that `cos θ2` varies), 60 s faded in
-/// and out.
-pub fn swing(bench: &SimConfig) -> Plan {
+/// A lab's inertia record on `bench`: the hold tracks a multisine on both joints about
+/// `(0, 0.5)` (joint 2 the wider, so that `cos θ2` varies), faded in and out, from
+/// 0.05 Hz to 0.5 Hz or half the link's first mode `f1` [Hz], whichever is lower (a lab keeps
+/// its swings below the link's first mode, which its modes record told it): ±0.3 and ±0.8 rad
+/// and 60 s to 0.5 Hz, further and longer for slower swings (at most ±1 and ±1.2 rad, 120 s).
+pub fn swing(bench: &SimConfig, f1: f64) -> Plan {
+    let top = (0.5 * f1).min(0.5);
+    // Slower swings reach further (within the joints' ranges), for accelerations alike.
+    let k = (0.5 / top).powi(2);
     Plan {
         cfg: *bench,
         pose: Vector2::new(0.0, 0.5),
         hold: Hold::default(),
         excite: Vec::new(),
         track: Some(Track {
-            reach: Vector2::new(0.3, 0.8),
-            band: (0.1, 0.5),
-            seconds: 60.0,
+            reach: Vector2::new((0.3 * k).min(1.0), (0.8 * k).min(1.2)),
+            band: (0.05, top),
+            seconds: 60.0 * k.sqrt().min(2.0),
             seed: 17,
         }),
         lead: 1.0,
@@ -313,7 +318,11 @@ pub fn lab_record(
     plan: &Plan,
     keep: bool,
 ) -> Result<Vec<Sample>, String> {
-    let sized = lab::sized(plan, FILM_SHARE)?;
+    let sized = if plan.excite.is_empty() {
+        plan.clone()
+    } else {
+        lab::sized(plan, FILM_SHARE)?
+    };
     let trace = lab::record(&sized)?;
     let path = dir.join(format!("{arm}_{name}.csv"));
     std::fs::write(&path, trace_csv(&trace))
@@ -364,18 +373,26 @@ pub fn identify_arm(
             .map_err(|e| e.to_string());
         modes.push((kind, fit));
     }
-    let swing_trace = lab_record(dir, (arm.name, "swing"), &swing(&bench), keep)?;
-    let inertia = fit_inertia(&swing_trace).map_err(|e| e.to_string());
-    let check = (|| {
-        let (kind, fit) = modes
-            .iter()
-            .find_map(|(k, f)| {
-                f.as_ref()
-                    .ok()
-                    .filter(|f| f.held.is_none())
-                    .map(|f| (*k, f))
+    let swing_trace = lab_record(dir, (arm.name, "swing"), &swing(&bench, truth[0].hz), keep)?;
+    // The model from the first record that found the clamped modes; the inertias with its
+    // modes taken out of the torques.
+    let clamped = modes.iter().find_map(|(k, f)| {
+        f.as_ref()
+            .ok()
+            .filter(|f| f.held.is_none())
+            .map(|f| (*k, f))
+    });
+    let inertia = match clamped {
+        Some((_, fit)) => {
+            fit_inertia_flexible(&swing_trace, geometry.a1, geometry.s_floor(), &|s| {
+                coupling(&geometry, fit, s)
             })
-            .ok_or("no record found the clamped modes")?;
+        }
+        None => fit_inertia(&swing_trace),
+    }
+    .map_err(|e| e.to_string());
+    let check = (|| {
+        let (kind, fit) = clamped.ok_or("no record found the clamped modes")?;
         let inertia = inertia
             .as_ref()
             .map_err(|e| format!("the inertia fit: {e}"))?;

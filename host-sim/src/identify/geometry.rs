@@ -175,6 +175,13 @@ impl Geometry {
         Ok(())
     }
 
+    /// The coupling `S = a1 m2 a2/2` a link of no mass but the payload would give, plus a
+    /// tenth [kg·m²]: where the flexible inertia fit's passes start at least
+    /// (`super::inertia::fit_inertia_flexible`).
+    pub fn s_floor(&self) -> f64 {
+        1.1 * self.a1 * self.a2 * self.tip_mass
+    }
+
     /// `nominal` with this geometry's lengths.
     pub fn arm(&self, nominal: &ArmParams<f64>) -> ArmParams<f64> {
         ArmParams {

@@ -250,6 +250,27 @@ const PASS: (f64, f64) = (2.0, 4.0);
 /// [`PASS`] is the torque's filter exactly.
 const PASS_DERIVATIVES: (f64, f64) = (4.0, 8.0);
 
+/// `δ̈` of `δ̈ + 2ζω δ̇ + ω² δ = f` for the forcing `f` sampled every `dt` [s] (frequency
+/// domain, periodic extension).
+fn modal_acceleration(f: &[f64], dt: f64, omega: f64, zeta: f64) -> Vec<f64> {
+    let n = f.len();
+    let mut planner = FftPlanner::new();
+    let mut x: Vec<Complex64> = f.iter().map(|v| Complex64::new(*v, 0.0)).collect();
+    planner.plan_fft_forward(n).process(&mut x);
+    for (k, c) in x.iter_mut().enumerate() {
+        let fk = if k <= n / 2 {
+            k as f64
+        } else {
+            k as f64 - n as f64
+        } / (n as f64 * dt);
+        let w = std::f64::consts::TAU * fk;
+        *c *= Complex64::new(-w * w, 0.0)
+            / Complex64::new(omega * omega - w * w, 2.0 * zeta * omega * w);
+    }
+    planner.plan_fft_inverse(n).process(&mut x);
+    x.iter().map(|c| c.re / n as f64).collect()
+}
+
 /// `x`'s derivatives of `orders` through the raised-cosine low-pass `pass` [Hz] (frequency
 /// domain, periodic extension; one forward transform).
 fn derivatives<const N: usize>(
@@ -292,8 +313,70 @@ fn derivatives<const N: usize>(
     })
 }
 
-/// The least-squares fit of a trace of the exciting motion (evenly sampled; angles, torques).
+/// One mode of the link as the joints feel it: `ω` [rad/s], `ζ`, and its coupling to the
+/// joints, `v` [√kg] and `w` [√kg·m] (`flexarm_core::model`: the mass matrix's
+/// `b_{1,2+j} = a1 cos θ2 v_j + w_j`, `b_{2,2+j} = w_j`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlexMode {
+    /// `ω` [rad/s].
+    pub omega: f64,
+    /// `ζ`.
+    pub zeta: f64,
+    /// `v_j` [√kg].
+    pub v: f64,
+    /// `w_j` [√kg·m].
+    pub w: f64,
+}
+
+/// The least-squares fit of a trace of the exciting motion (evenly sampled; angles, torques)
+/// with the link rigid.
 pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
+    fit_inertia_with(trace, 0.0, &[])
+}
+
+/// The fit with the link's modes `flex` taken out of the torques, `a1` [m] link 1's length: a
+/// link whose first mode lies near the motion's band is no rigid body, and its modes' reaction
+/// `τ1 += Σ (a1 cos θ2 v_j + w_j) δ̈_j`, `τ2 += Σ w_j δ̈_j` is what a rigid fit would charge to
+/// the inertias. `δ_j` follows from the measured joints' accelerations through the mode's own
+/// equation, `δ̈_j + 2ζ_jω_j δ̇_j + ω_j² δ_j = −(a1 cos θ2 v_j + w_j) θ̈1 − w_j θ̈2`, solved in
+/// the frequency domain (the record starts and ends at rest).
+pub fn fit_inertia_with(
+    trace: &[Sample],
+    a1: f64,
+    flex: &[FlexMode],
+) -> Result<InertiaFit, IdentifyError> {
+    solve_inertia(trace, a1, flex, true)
+}
+
+/// The link's modes' coupling from `S` [kg·m²]: what the model step knows of the link's mass
+/// once `S` is known ([`fit_inertia_flexible`]).
+pub type Coupling<'a> = &'a dyn Fn(f64) -> Result<Vec<FlexMode>, IdentifyError>;
+
+/// [`fit_inertia_with`] where the modes' coupling depends on `S` itself: three passes, each
+/// with the coupling of the pass before's `S`, at least `s_floor` [kg·m²] (what a payload
+/// alone gives: a rigid fit of a flexible link may find less); the first with the link rigid,
+/// the first two with the gates waived (a flexible link's rigid fit may well fail them).
+pub fn fit_inertia_flexible(
+    trace: &[Sample],
+    a1: f64,
+    s_floor: f64,
+    coupling: Coupling,
+) -> Result<InertiaFit, IdentifyError> {
+    let mut s = solve_inertia(trace, a1, &[], false)?.rigid.s;
+    for _ in 0..2 {
+        s = solve_inertia(trace, a1, &coupling(s.max(s_floor))?, false)?
+            .rigid
+            .s;
+    }
+    fit_inertia_with(trace, a1, &coupling(s.max(s_floor))?)
+}
+
+fn solve_inertia(
+    trace: &[Sample],
+    a1: f64,
+    flex: &[FlexMode],
+    gates: bool,
+) -> Result<InertiaFit, IdentifyError> {
     if trace.len() < 1000 {
         return Err(IdentifyError::Data(format!(
             "gate `record length`: the record holds {} samples: at least 1000 are needed",
@@ -335,10 +418,22 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
         let [y] = derivatives(x, dt, PASS, [0]);
         y
     };
-    let tau = [lowpass(&ch(&|s| s.tau.x)), lowpass(&ch(&|s| s.tau.y))];
     let [pos1, vel1, acc1] = derivatives(&th[0], dt, PASS_DERIVATIVES, [0, 1, 2]);
     let [pos2, vel2, acc2] = derivatives(&th[1], dt, PASS_DERIVATIVES, [0, 1, 2]);
     let (pos, vel, acc) = ([pos1, pos2], [vel1, vel2], [acc1, acc2]);
+    let mut raw = [ch(&|s| s.tau.x), ch(&|s| s.tau.y)];
+    for m in flex {
+        let b1: Vec<f64> = pos[1].iter().map(|c| a1 * c.cos() * m.v + m.w).collect();
+        let force: Vec<f64> = (0..raw[0].len())
+            .map(|k| -b1[k] * acc[0][k] - m.w * acc[1][k])
+            .collect();
+        let dd = modal_acceleration(&force, dt, m.omega, m.zeta);
+        for k in 0..raw[0].len() {
+            raw[0][k] -= b1[k] * dd[k];
+            raw[1][k] -= m.w * dd[k];
+        }
+    }
+    let tau = [lowpass(&raw[0]), lowpass(&raw[1])];
     // The regressor's columns, each through the low-pass the torques took: its products of
     // angles, speeds and accelerations reach past the band, and the equation holds only when
     // both sides are filtered alike.
@@ -397,7 +492,7 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
     }
     let sv = scaled.singular_values();
     let condition = sv.max() / sv.min().max(f64::MIN_POSITIVE);
-    if condition.is_nan() || condition > MAX_CONDITION {
+    if gates && (condition.is_nan() || condition > MAX_CONDITION) {
         return Err(IdentifyError::Data(format!(
             "gate `regressor condition`: the regressor's condition number is {condition:.3e} (at most {MAX_CONDITION}): the record's motion does not tell A, J, S and the friction apart (θ2 must swing widely, both joints move both ways at several speeds)"
         )));
@@ -420,13 +515,15 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
         j: x[1],
         s: x[2],
     };
-    rigid.check()?;
+    if gates {
+        rigid.check()?;
+    }
     for (name, v, s) in [
         ("A", rigid.a, sigma.a),
         ("J", rigid.j, sigma.j),
         ("S", rigid.s, sigma.s),
     ] {
-        if s > MAX_SPREAD * v {
+        if gates && s > MAX_SPREAD * v {
             return Err(IdentifyError::Data(format!(
                 "gate `uncertainty`: {name} = {v:.4e} ± {s:.1e} kg·m² (the record's halves disagree by more than {:.0} %): a longer record, or wider moves",
                 MAX_SPREAD * 100.0

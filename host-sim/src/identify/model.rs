@@ -31,6 +31,46 @@ fn gate(name: &str, msg: String) -> IdentifyError {
     IdentifyError::Data(format!("gate `{name}`: {msg}"))
 }
 
+/// A mode shape's integrals with the geometry's tip body: `(v, w, φ(a2))`,
+/// `v = ∫ρφ + M φ(a2)`, `w = ∫ρxφ + M a2 φ(a2) + J_t φ'(a2)`.
+fn integrals(geometry: &Geometry, s: &flexarm_beam::segmented::Mode) -> (f64, f64, f64) {
+    let (l, mt, jt) = (geometry.a2, geometry.tip_mass, geometry.tip_inertia);
+    let (tip, tip_s) = (s.phi(l), s.slope(l));
+    (
+        s.integrate(|_, p| p) + mt * tip,
+        s.integrate(|x, p| x * p) + mt * l * tip + jt * tip_s,
+        tip,
+    )
+}
+
+/// The modes `fit` found, as the joints feel them through the shapes of the link that the
+/// geometry and the inertia fit's `S` [kg·m²] give ([`super::inertia::fit_inertia_flexible`]).
+pub fn coupling(
+    geometry: &Geometry,
+    fit: &ModesFit,
+    s: f64,
+) -> Result<Vec<super::inertia::FlexMode>, IdentifyError> {
+    let m_link = 2.0 * s / (geometry.a1 * geometry.a2) - 2.0 * geometry.tip_mass;
+    let Some(first) = fit.all.first() else {
+        return Ok(Vec::new());
+    };
+    let shapes = geometry.shapes(m_link, first.omega, fit.all.len())?;
+    Ok(fit
+        .all
+        .iter()
+        .zip(&shapes)
+        .map(|(m, shape)| {
+            let (v, w, _) = integrals(geometry, shape);
+            super::inertia::FlexMode {
+                omega: m.omega,
+                zeta: m.zeta,
+                v,
+                w,
+            }
+        })
+        .collect())
+}
+
 /// An identified model: the arm, the patch and what the step assumed or checked, one sentence
 /// each.
 pub type Identified = (ArmParams<f64>, PiezoPatch<f64>, Vec<String>);
@@ -85,15 +125,7 @@ pub fn identified_model(
     let shapes = geometry.shapes(m_link, m1.omega, top)?;
     let (l, mt, jt) = (geometry.a2, geometry.tip_mass, geometry.tip_inertia);
     let shape = |k: usize| &shapes[k - 1];
-    let ints = |k: usize| {
-        let s = shape(k);
-        let (tip, tip_s) = (s.phi(l), s.slope(l));
-        (
-            s.integrate(|_, p| p) + mt * tip,
-            s.integrate(|x, p| x * p) + mt * l * tip + jt * tip_s,
-            tip,
-        )
-    };
+    let ints = |k: usize| integrals(geometry, shape(k));
     let (k1, k2) = (fit.kept[0], fit.kept[1]);
     let (i1, i2) = (ints(k1), ints(k2));
     arm.modes = ModalData {
