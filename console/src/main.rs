@@ -471,7 +471,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     };
                     let trace = flexarm_console::identify::inertia(&mut c, &plan)?;
                     workflow::save_record(staging, "inertia", &trace).map_err(ConsoleError::Io)?;
-                    workflow::save_inertia(staging, &trace, None)
+                    workflow::save_inertia(staging, &trace, None, None)
                         .map_err(ConsoleError::Failed)?
                         .1
                 }

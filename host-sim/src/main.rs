@@ -87,8 +87,9 @@ enum Command {
         /// combinations), `decay` (the held arm's free decay, against each model's
         /// prediction), or `all` of them and then the identified model and its closed-loop
         /// and decay checks; or `model`: the model from a board's two records
-        /// (`--modes-record`, `--inertia-record`).
-        #[arg(value_parser = ["friction", "modes", "inertia", "decay", "all", "model"])]
+        /// (`--modes-record`, `--inertia-record`); or `family`: the test family's arms, each
+        /// identified from its lab's records, against their truth (docs/identification.md).
+        #[arg(value_parser = ["friction", "modes", "inertia", "decay", "all", "model", "family"])]
         experiment: String,
         /// `decay`: a model file (`model.toml`) whose prediction of the decay is checked too.
         #[arg(long)]
@@ -535,6 +536,26 @@ fn main_result(cli: Cli) -> Result<()> {
                 segment,
             };
             let report = match (experiment.as_str(), &record) {
+                ("family", None) => {
+                    use flexarm_sim::identify::family::{self, Kind};
+                    use rayon::prelude::*;
+                    let kinds = [Kind::ChirpNoise, Kind::Random, Kind::ChirpLog];
+                    let results: Vec<_> = family::family()
+                        .par_iter()
+                        .map(|arm| family::identify_arm(arm, &kinds, dir.staging(), false))
+                        .collect::<Result<_>>()?;
+                    let text = format!(
+                        "# The family\n\nEach arm of `flexarm_sim::identify::family` recorded by `flexarm_sim::lab` (a PD hold, the kinds below, sized to {} of the film's range), written and read back as a trace, fitted by `cargo sim identify`'s code (`cargo sim identify family`).\n\n{}",
+                        family::FILM_SHARE,
+                        family::report(&results)
+                    );
+                    std::fs::write(dir.staging().join("family.md"), &text)
+                        .map_err(|e| format!("cannot write family.md: {e}"))?;
+                    text
+                }
+                ("family", Some(_)) => {
+                    return Err("--record: `family` makes its own records".into());
+                }
                 ("model", _) => {
                     let (Some(m), Some(i)) = (&modes_record, &inertia_record) else {
                         return Err("model: give both --modes-record and --inertia-record".into());
@@ -542,7 +563,7 @@ fn main_result(cli: Cli) -> Result<()> {
                     workflow::model_from_records(&b, m, i, nominal.0, &fit_set)?
                 }
                 ("modes", r) => workflow::modes_step(&b, r.as_deref(), seconds, &fit_set)?.1,
-                ("inertia", r) => workflow::inertia_step(&b, r.as_deref())?.1,
+                ("inertia", r) => workflow::inertia_step(&b, r.as_deref(), None)?.1,
                 ("decay", r) => {
                     let models: Vec<workflow::Model> = model
                         .map(|(arm, patch)| ("model file", arm, patch))

@@ -136,3 +136,127 @@ fn lightly_damped_arm() {
 fn long_arm() {
     check(&run("long", &KINDS));
 }
+
+/// Bad records refused with the gate's name: too short for the lowest mode, no excitation
+/// where a mode is, zero torque, constant angles, negated torques, a clipped film, a film that
+/// never moves, a missing channel.
+#[test]
+fn bad_records_are_refused_with_the_gate() {
+    use flexarm_sim::identify::family::swing;
+    use flexarm_sim::identify::inertia::fit_inertia;
+    use flexarm_sim::identify::modal::{FitSettings, fit_modes};
+    use flexarm_sim::identify::record::ModesRecord;
+    use flexarm_sim::lab::{self, Actuator, Excite, Shape};
+    let arm = family().into_iter().find(|a| a.name == "slow").unwrap();
+    let bench = arm.bench().unwrap();
+    let light = family()
+        .into_iter()
+        .find(|a| a.name == "light")
+        .unwrap()
+        .bench()
+        .unwrap();
+    let modes_error =
+        |trace: &[flexarm_sim::sim::Sample], range: f64| match ModesRecord::from_trace(
+            trace,
+            range,
+            (-200.0, 200.0),
+        )
+        .and_then(|r| fit_modes(&r, &FitSettings::default()))
+        {
+            Ok(f) => panic!(
+                "fitted: {:?}",
+                f.all.iter().map(|m| m.hz()).collect::<Vec<_>>()
+            ),
+            Err(e) => e.to_string(),
+        };
+    let noise = |from: f64, seconds: f64, seed: u64| Shape::Random {
+        from,
+        to: 60.0,
+        seconds,
+        seed,
+    };
+    let record = |bench: &flexarm_sim::sim::SimConfig, from: f64, seconds: f64| {
+        let mut plan = Kind::Random.plan(bench);
+        plan.excite = vec![
+            Excite {
+                actuator: Actuator::Patch,
+                shape: noise(from, seconds, 3),
+                amplitude: 60.0,
+            },
+            Excite {
+                actuator: Actuator::Motor(1),
+                shape: noise(from, seconds, 5),
+                amplitude: 1.0,
+            },
+        ];
+        lab::record(&plan).unwrap()
+    };
+    // Five seconds resolve modes down to 2 Hz only: too short for the light arm's 4.5 Hz
+    // first mode (found there it could not be vouched for as the first; missed, the second is
+    // missing too).
+    let m = modes_error(&record(&light, 0.1, 4.0), 10.0);
+    assert!(
+        m.contains("gate `record length`")
+            || (m.contains("gate `modes`") && m.contains("resolves modes from 2.00 Hz up")),
+        "{m}"
+    );
+    // Excited from 5 Hz up: the slow arm's 0.5 Hz mode is not there to see.
+    let high = record(&bench, 5.0, 40.0);
+    let m = modes_error(&high, 10.0);
+    assert!(m.contains("gate `excitation band`"), "{m}");
+    // The film at the ADC's ends, or never moving.
+    let m = modes_error(&high, 0.05);
+    assert!(m.contains("gate `clipping`: `v_f` is clipped"), "{m}");
+    let mut still = high.clone();
+    still.iter_mut().for_each(|s| s.v_f = 0.0);
+    let m = modes_error(&still, 10.0);
+    assert!(
+        m.contains("gate `channels`") && m.contains("never changes"),
+        "{m}"
+    );
+    // The inertia record: zero torque, constant angles, negated torques.
+    let swing = lab::record(&swing(&bench, 0.5)).unwrap();
+    let inertia_error = |t: &[flexarm_sim::sim::Sample]| fit_inertia(t).unwrap_err().to_string();
+    let mut zero = swing.clone();
+    zero.iter_mut()
+        .for_each(|s| s.tau = flexarm_core::Vector2::zeros());
+    let m = inertia_error(&zero);
+    assert!(
+        m.contains("gate `excitation`") && m.contains("never changes"),
+        "{m}"
+    );
+    let mut frozen = swing.clone();
+    frozen.iter_mut().for_each(|s| {
+        s.x.q.x = 0.0;
+        s.x.q.y = 0.5;
+    });
+    let m = inertia_error(&frozen);
+    assert!(
+        m.contains("gate `excitation`") && m.contains("moved 0 encoder steps"),
+        "{m}"
+    );
+    let mut negated = swing.clone();
+    negated.iter_mut().for_each(|s| s.tau = -s.tau);
+    let m = inertia_error(&negated);
+    assert!(m.contains("gate `physical consistency`"), "{m}");
+    // A trace without its film column is no trace.
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let path = dir.join("missing_film.csv");
+    let text = flexarm_sim::output::trace_csv(&swing[..2000]);
+    let cut: String = text
+        .lines()
+        .map(|l| l.rsplit_once(',').map_or(l, |(a, _)| a).to_string() + "\n")
+        .collect();
+    std::fs::write(&path, cut).unwrap();
+    let m = flexarm_sim::output::read_csv(&path).unwrap_err();
+    assert!(m.contains(":1: not a flexarm trace"), "{m}");
+    let mut rec = ModesRecord::from_trace(&high, 10.0, (-200.0, 200.0)).unwrap();
+    rec.tau[1].clear();
+    let m = fit_modes(&rec, &FitSettings::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        m.contains("gate `channels`: the channel `tau2` is missing"),
+        "{m}"
+    );
+}

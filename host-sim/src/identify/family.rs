@@ -440,11 +440,19 @@ pub fn report(results: &[ArmResult]) -> String {
         for (kind, fit) in &r.modes {
             match fit {
                 Ok(f) => {
-                    let inputs = if f.held.is_some() {
-                        "patch (held arm)"
-                    } else {
-                        "patch, base"
-                    };
+                    let names: Vec<&str> = f
+                        .inputs
+                        .iter()
+                        .map(|i| match i {
+                            modal::Input::Patch => "patch",
+                            modal::Input::Base => "base",
+                        })
+                        .collect();
+                    let inputs = format!(
+                        "{}{}",
+                        names.join(", "),
+                        if f.held.is_some() { " (held arm)" } else { "" }
+                    );
                     for m in &f.all {
                         let Some((j, t)) = nearest(&r.truth, m.hz()) else {
                             continue;

@@ -530,8 +530,66 @@ pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, Ident
             selection = order::select(&restrict(&sp, band), &low, band, set.max_modes)?;
         }
     }
+    // Why the band starts where it does: what a mode below it would need.
+    let bottom = match (set.band, covered_band) {
+        (Some(_), _) => Bottom::Asked,
+        (None, Some((clo, _))) if clo >= RESOLVED_LINES * sp.df() => Bottom::Excitation,
+        _ => Bottom::Length(n as f64 * dt, RESOLVED_LINES * sp.df()),
+    };
+    let resolved = RESOLVED_LINES * sp.df();
     let sp = restrict(&sp, band);
-    finish(sp, selection, inputs, held, band, set, notes)
+    let fit = finish(sp, selection, inputs, held, (band, resolved), set, notes)?;
+    lowest_is_first(&fit, bottom)?;
+    Ok(fit)
+}
+
+/// Where the band's bottom comes from.
+enum Bottom {
+    /// The user's `--band`.
+    Asked,
+    /// Where the excitation's power starts.
+    Excitation,
+    /// The record's resolution: its length [s], and the lowest mode it resolves [Hz].
+    Length(f64, f64),
+}
+
+/// The lowest mode a record resolves is `RESOLVED_LINES` lines up: there a mode of `ζ = 0.05`
+/// spans a line of its half-power band `2ζf`, and its period fits ten times in the record.
+const RESOLVED_LINES: f64 = 10.0;
+
+/// The gates `excitation band` and `record length`: mode 1 kept must be the link's first, and
+/// the fit can only vouch for that when the band reaches an octave below it (a collocated
+/// patch's response is flat below its first mode, so a mode there would have shown).
+fn lowest_is_first(fit: &ModesFit, bottom: Bottom) -> Result<(), IdentifyError> {
+    let (Some(first), true) = (fit.all.first(), fit.kept.contains(&1)) else {
+        return Ok(());
+    };
+    let f1 = first.hz();
+    let lo = match bottom {
+        Bottom::Length(_, resolved) => resolved.max(fit.band.0),
+        _ => fit.band.0,
+    };
+    if lo <= 0.5 * f1 {
+        return Ok(());
+    }
+    match bottom {
+        Bottom::Asked => Ok(()),
+        Bottom::Excitation => Err(gate(
+            "excitation band",
+            format!(
+                "the excitation covers the band from {lo:.3} Hz only: a mode below it would go unseen, so the lowest found ({f1:.3} Hz) is not known to be the link's first; excite down to {:.3} Hz (an octave below it), or name the band (--band) if no mode lies there",
+                0.5 * f1
+            ),
+        )),
+        Bottom::Length(seconds, _) => Err(gate(
+            "record length",
+            format!(
+                "a record of {seconds:.1} s resolves from {lo:.3} Hz only: too short for modes down to {:.3} Hz (an octave below the lowest found, {f1:.3} Hz): record at least {:.0} s",
+                0.5 * f1,
+                seconds * lo / (0.5 * f1)
+            ),
+        )),
+    }
 }
 
 /// Periods of the band's bottom a Welch segment must hold: four lines in the half-power band
@@ -671,7 +729,7 @@ fn finish(
     sel: Selection,
     inputs: Vec<Input>,
     held: Option<String>,
-    band: (f64, f64),
+    (band, resolved): ((f64, f64), f64),
     set: &FitSettings,
     mut notes: Vec<String>,
 ) -> Result<ModesFit, IdentifyError> {
@@ -806,7 +864,7 @@ fn finish(
             return Err(gate(
                 "modes",
                 format!(
-                    "mode {k} not seen: the fit found {} mode(s) in {:.3}–{:.1} Hz ({}); the excitation did not reach mode {k}, or it lies outside the band",
+                    "mode {k} not seen: the fit found {} mode(s) in {:.3}–{:.1} Hz ({}); the excitation did not reach mode {k}, or it lies outside the band, or the record is too short for it (a record of {:.1} s resolves modes from {resolved:.2} Hz up)",
                     all.len(),
                     band.0,
                     band.1,
@@ -814,7 +872,8 @@ fn finish(
                         "none".into()
                     } else {
                         list.clone()
-                    }
+                    },
+                    RESOLVED_LINES / resolved
                 ),
             ));
         };

@@ -140,24 +140,45 @@ pub fn save_modes(
 }
 
 /// The inertia step: `inertia.md` (and the record when simulated).
-pub fn inertia_step(b: &Bench, record: Option<&Path>) -> Result<(InertiaFit, String), String> {
+/// The inertia step, with the link's modes of `modes` (a modes fit of the same arm) taken out
+/// of the torques when given: `inertia.md` (and the record when simulated).
+pub fn inertia_step(
+    b: &Bench,
+    record: Option<&Path>,
+    modes: Option<&ModesFit>,
+) -> Result<(InertiaFit, String), String> {
     let trace = record_or_run(b, record, "inertia", || {
         inertia::inertia_experiment(b.cfg, &InertiaPlan::default())
     })?;
     let truth = b.known.then(|| Rigid::of(&b.cfg.arm));
-    save_inertia(b.dir, &trace, truth).map_err(naming(record))
+    save_inertia(b.dir, &trace, truth, modes.map(|m| (b.geometry, m))).map_err(naming(record))
 }
 
-/// Fits the inertia record `trace` and writes `inertia.md` into `dir` (against `truth` when
-/// known). Returns the fit and the report.
+/// Fits the inertia record `trace` (with the modes of a modes fit on a geometry taken out of
+/// the torques, when given) and writes `inertia.md` into `dir` (against `truth` when known).
+/// Returns the fit and the report.
 pub fn save_inertia(
     dir: &Path,
     trace: &[Sample],
     truth: Option<Rigid>,
+    modes: Option<(&Geometry, &ModesFit)>,
 ) -> Result<(InertiaFit, String), String> {
-    let fit = inertia::fit_inertia(trace).map_err(|e| e.to_string())?;
+    let (fit, how) = match modes {
+        Some((g, m)) => (
+            inertia::fit_inertia_flexible(trace, g.a1, g.s_floor(), &|s| model::coupling(g, m, s)),
+            format!(
+                "the link's {} mode(s) the modes fit found taken out of the torques through the geometry's shapes",
+                m.all.len()
+            ),
+        ),
+        None => (
+            inertia::fit_inertia(trace),
+            "the link taken as rigid (`identify model` takes its modes out)".to_string(),
+        ),
+    };
+    let fit = fit.map_err(|e| e.to_string())?;
     let text = format!(
-        "# The rigid inertias\n\nBoth joints through random rest-to-rest trapezoids about (0, 0.5) rad; least squares on the regressor (`docs/identification.md`).\n\n{}",
+        "# The rigid inertias\n\nLeast squares on the regressor, {how} (`docs/identification.md`).\n\n{}",
         report::inertia_report(&fit, truth)
     );
     write(dir, "inertia.md", &text)?;
@@ -238,7 +259,7 @@ pub fn all(
 ) -> Result<String, String> {
     let f_text = friction_step(b, &super::SPEEDS, super::CRUISE)?;
     let (modes, m_text) = modes_step(b, None, seconds, &FitSettings::default())?;
-    let (inertia, i_text) = inertia_step(b, None)?;
+    let (inertia, i_text) = inertia_step(b, None, Some(&modes))?;
     let (arm, patch, _) = write_model(b, nominal.0, &modes, &inertia)?;
     let check = SimConfig {
         piezo: Some(CHECK_PIEZO),
@@ -284,8 +305,8 @@ pub fn model_from_records(
 ) -> Result<String, String> {
     let (modes, m_text) =
         modes_step(b, Some(modes_record), 0.0, set).map_err(|e| format!("the modes fit: {e}"))?;
-    let (inertia, i_text) =
-        inertia_step(b, Some(inertia_record)).map_err(|e| format!("the inertia fit: {e}"))?;
+    let (inertia, i_text) = inertia_step(b, Some(inertia_record), Some(&modes))
+        .map_err(|e| format!("the inertia fit: {e}"))?;
     let (_, _, model) = write_model(b, nominal, &modes, &inertia)?;
     Ok(format!("{m_text}\n{i_text}\n{model}"))
 }
