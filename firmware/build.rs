@@ -17,6 +17,39 @@ fn main() {
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg=-Tlink.x");
     println!("cargo:rustc-link-arg=-Tdefmt.x");
+    #[cfg(feature = "c-compare")]
+    c_compare();
+}
+
+/// The bench's C comparison (feature `c-compare`): `c/steps.c` built with arm-none-eabi-gcc
+/// for the Cortex-M4F at -O2 and at -O3, each build's symbols suffixed `_o2` / `_o3`, the same
+/// arithmetic as the Rust (`-ffp-contract=off`: rustc never fuses a multiply and an add).
+#[cfg(feature = "c-compare")]
+fn c_compare() {
+    const GCC: &str = "arm-none-eabi-gcc";
+    println!("cargo:rerun-if-changed=c/steps.c");
+    let found = std::process::Command::new(GCC).arg("--version").output();
+    if !found.is_ok_and(|o| o.status.success()) {
+        panic!(
+            "{GCC} not found: the bench's C comparison needs it (Debian/Ubuntu: apt-get install gcc-arm-none-eabi)"
+        );
+    }
+    for level in [2, 3] {
+        cc::Build::new()
+            .compiler(GCC)
+            .file("c/steps.c")
+            .opt_level(level)
+            .define("SUFFIX", format!("_o{level}").as_str())
+            .flag("-std=c11")
+            .flag("-mthumb")
+            .flag("-mcpu=cortex-m4")
+            .flag("-mfpu=fpv4-sp-d16")
+            .flag("-mfloat-abi=hard")
+            .flag("-ffp-contract=off")
+            .flag("-ffreestanding")
+            .warnings_into_errors(true)
+            .compile(&format!("flexarm_c_o{level}"));
+    }
 }
 
 /// The generated parameters the firmware builds with, as `OUT_DIR/generated.rs` (included by
@@ -27,7 +60,7 @@ fn main() {
 /// file `cargo sim firmware-params` wrote is taken; its inner doc comments become plain
 /// comments (`include!` takes items only).
 fn generated() {
-    const FIRST_LINE: &str = "//! The arm model, piezo patch and observer gains the firmware runs.";
+    const FIRST_LINE: &str = "//! The arm model, piezo patch and observer gains the firmware runs, in each board's configuration.";
     println!("cargo:rerun-if-env-changed=FLEXARM_PARAMS");
     let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it")).join("..");
     let (path, name) = match env::var_os("FLEXARM_PARAMS") {
@@ -74,8 +107,9 @@ fn budgets() {
             .parse()
             .expect("budgets.txt: values are whole numbers");
         out += &format!(
-            "#[allow(dead_code)]\npub const BUDGET_{}: u32 = {value};\n",
-            key.trim().to_uppercase()
+            "/// `{key}` of firmware/budgets.txt.\n#[allow(dead_code)]\npub const BUDGET_{}: u32 = {value};\n",
+            key.trim().to_uppercase(),
+            key = key.trim()
         );
     }
     let path =

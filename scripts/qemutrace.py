@@ -61,7 +61,7 @@ def wrappers(funcs):
     """{`call_<name>`: (start, end)} of the bench's measured wrappers."""
     out = {}
     for a, e, n in funcs:
-        m = re.search(r"bench::(call_\w+?)(?:::h[0-9a-f]{16})?$", n)
+        m = re.search(r"bench::(?:\w+::)?(call_\w+?)(?:::h[0-9a-f]{16})?$", n)
         if m:
             out[m.group(1)] = (a, e)
     return out

@@ -1,4 +1,4 @@
-"""The Cortex-M4 cycle model (`m4cycles.py`) on hand-worked sequences.
+"""The Cortex-M4 cycle models (`m4cycles.py`) on hand-worked sequences.
 
 Run: python3 -m unittest discover -s scripts -p 'test_*.py'
 """
@@ -109,6 +109,59 @@ class Sequences(unittest.TestCase):
         self.assertEqual(m4cycles.cycles(seq("vmov r0, s0")), 1)
         self.assertEqual(m4cycles.cycles(seq("vmov r0, r1, d0")), 2)
         self.assertEqual(m4cycles.cycles(seq("vmov.f32 s0, #1.0")), 1)
+
+
+class Unpipelined(unittest.TestCase):
+    """The second model: every single load or store costs 2; everything else as the first."""
+
+    U = m4cycles.UNPIPELINED
+
+    def test_loads_never_pipeline(self):
+        # The three independent loads that cost 2 + 1 + 1 pipelined: 2 + 2 + 2.
+        t = seq("""
+            ldr r0, [r4]
+            ldr r1, [r4, #4]
+            vldr s0, [r4, #8]
+        """)
+        self.assertEqual(m4cycles.cycles(t, self.U), 6)
+        # A store after a load: 2 + 2 (pipelined: 2 + 1).
+        self.assertEqual(m4cycles.cycles(seq("vldr s0, [r0]\nvstr s0, [r1]"), self.U), 4)
+        self.assertEqual(m4cycles.cycles(seq("vldr s0, [r0]\nvstr s0, [r1]")), 3)
+
+    def test_only_single_accesses_differ(self):
+        # Multiple transfers, doubleword accesses, branches and FP arithmetic cost the same in
+        # both models: a sequence without two neighbouring single accesses costs the same.
+        t = seq("""
+            push {r4, r5, r6, r7, lr}
+            vldm r0, {s0-s3}
+            ldrd r2, r3, [r1]
+            vmla.f32 s0, s1, s2
+            ldr r0, [r1]
+            vadd.f32 s4, s0, s1
+            str r0, [r2]
+            pop {r4, r5, r6, r7, pc}
+        """, taken={7})
+        want = 6 + 5 + 3 + 3 + 2 + 1 + 2 + 6 + m4cycles.REFILL
+        self.assertEqual(m4cycles.cycles(t), want)
+        self.assertEqual(m4cycles.cycles(t, self.U), want)
+
+    def test_never_cheaper_than_pipelined(self):
+        # The same trace costs at least as much without pipelining, by one cycle per access
+        # that pipelined: here the second and third loads and the store after a load.
+        t = seq("""
+            ldr r0, [r4]
+            vldr s0, [r4, #4]
+            vldr s1, [r4, #8]
+            vmul.f32 s2, s0, s1
+            vldr s3, [r5]
+            vstr s2, [r5, #4]
+        """)
+        self.assertEqual(m4cycles.cycles(t), 2 + 1 + 1 + 1 + 2 + 1)
+        self.assertEqual(m4cycles.cycles(t, self.U), 2 + 2 + 2 + 1 + 2 + 2)
+
+    def test_unknown_model_is_refused(self):
+        with self.assertRaises(ValueError):
+            m4cycles.cycles(seq("nop"), "fast")
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@
 
 use crate::design::{Amplifier, DesignModel, Normalization, Objective, Weights};
 use crate::section::Layers;
+use crate::toml_at::number as num;
 use flexarm_core::control::piezo::PiezoMaterial;
 use serde::Deserialize;
 use std::fmt;
@@ -19,101 +20,6 @@ pub const MAX_TIP_INERTIA_RATIO: f64 = 10.0;
 const MAX_PATCHES: f64 = 50_000.0;
 /// Most `(patch, gain)` evaluations of the grid.
 const MAX_EVALUATIONS: f64 = 5e6;
-
-/// One line from a TOML error: `line N: message`, with `` `table.key`: `` when the line
-/// holds a key.
-pub fn toml_error(text: &str, e: &toml::de::Error) -> String {
-    let line = e
-        .span()
-        .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
-    let msg = e.message().trim().replace('\n', " ");
-    let Some(l) = line else {
-        return msg;
-    };
-    // The key on that line, under the last table header above it.
-    let mut table = String::new();
-    let mut key = None;
-    for (i, raw) in text.lines().enumerate().take(l) {
-        let t = raw.trim();
-        if let Some(h) = t.strip_prefix('[').and_then(|h| h.split(']').next()) {
-            table = h.trim().to_string();
-        } else if i + 1 == l {
-            key = t.split_once('=').map(|(k, _)| k.trim().to_string());
-        }
-    }
-    match key.filter(|k| !k.is_empty()) {
-        Some(k) if table.is_empty() => format!("line {l}: `{k}`: {msg}"),
-        Some(k) => format!("line {l}: `{table}.{k}`: {msg}"),
-        None => format!("line {l}: {msg}"),
-    }
-}
-
-/// An error about the TOML file `path` (of content `text`) as `<file>:<line>: <message>`: the
-/// line a `line N: ` prefix gives, else the line of the key (or table) the message names.
-pub fn at_line(path: &std::path::Path, text: &str, msg: &str) -> String {
-    let numbered = msg.strip_prefix("line ").and_then(|rest| {
-        let (n, m) = rest.split_once(": ")?;
-        Some((n.parse::<usize>().ok()?, m.to_string()))
-    });
-    match numbered.or_else(|| {
-        key_of(msg)
-            .and_then(|k| locate(text, &k))
-            .map(|l| (l, msg.to_string()))
-    }) {
-        Some((l, m)) => format!("{}:{l}: {m}", path.display()),
-        None => format!("{}: {msg}", path.display()),
-    }
-}
-
-/// The key an error message names: its first `` `key` `` or `[table]`.
-pub fn key_of(msg: &str) -> Option<String> {
-    // "[table]: ... `leaf` ..." names `table.leaf`.
-    if let Some(rest) = msg.strip_prefix('[')
-        && let Some((table, tail)) = rest.split_once("]: ")
-        && let Some(leaf) = tail.split('`').nth(1)
-    {
-        return Some(format!("{table}.{leaf}"));
-    }
-    let tick = msg.find('`').and_then(|a| {
-        let b = msg[a + 1..].find('`')?;
-        Some((a, msg[a + 1..a + 1 + b].to_string()))
-    });
-    let table = msg.find('[').and_then(|a| {
-        let b = msg[a + 1..].find(']')?;
-        Some((a, msg[a + 1..a + 1 + b].to_string()))
-    });
-    match (tick, table) {
-        (Some(t), Some(b)) => Some(if t.0 < b.0 { t.1 } else { b.1 }),
-        (t, b) => t.or(b).map(|x| x.1),
-    }
-}
-
-/// The 1-based line of a dotted key (`controller.k_c`, `duration`) or of a table header
-/// (`arm`) in a scenario's TOML text; for a key that is not written there, its table's header.
-pub fn locate(text: &str, key: &str) -> Option<usize> {
-    let key = key.trim_end_matches("[]");
-    let (table, leaf) = match key.rsplit_once('.') {
-        Some((t, l)) => (t, l),
-        None => ("", key),
-    };
-    let mut current = String::new();
-    let mut header = None;
-    for (i, raw) in text.lines().enumerate() {
-        let line = raw.trim();
-        if let Some(h) = line.strip_prefix('[').and_then(|l| l.split(']').next()) {
-            current = h.trim().to_string();
-            if current == key || current == table {
-                header = header.or(Some(i + 1));
-            }
-            continue;
-        }
-        let name = line.split('=').next().unwrap_or("").trim();
-        if current == table && name == leaf && line.contains('=') {
-            return Some(i + 1);
-        }
-    }
-    header
-}
 
 /// A refused configuration: the message names the key and the rule.
 #[derive(Debug, Clone, PartialEq)]
@@ -344,22 +250,8 @@ fn check(cond: bool, msg: impl FnOnce() -> String) -> Result<(), ConfigError> {
 
 fn positive(name: &str, v: f64) -> Result<(), ConfigError> {
     check(v.is_finite() && v > 0.0, || {
-        format!("`{name}` = {v} must be a finite number > 0")
+        format!("`{name}` = {} must be a finite number > 0", num(v))
     })
-}
-
-/// A number as a person reads it: plain, or in exponent form when very large or small.
-fn num(v: f64) -> String {
-    if v != 0.0 && v.is_finite() && !(1e-3..1e6).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        let s = format!("{v:.6}");
-        if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            s
-        }
-    }
 }
 
 /// `lo ≤ v ≤ hi` (physical ranges: beyond them the model's assumptions or its numerics end).
@@ -377,12 +269,7 @@ fn within_because(
     why: &str,
 ) -> Result<(), ConfigError> {
     check(v.is_finite() && v >= lo && v <= hi, || {
-        format!(
-            "`{name}` = {} {unit} is outside {} to {} {unit}{why}",
-            num(v),
-            num(lo),
-            num(hi)
-        )
+        format!("{}{why}", crate::toml_at::outside(name, v, lo, hi, unit))
     })
 }
 
@@ -395,7 +282,8 @@ const DENSITY: (f64, f64) = (10.0, 25_000.0);
 impl Config {
     /// Parses and validates a TOML text.
     pub fn from_toml(text: &str) -> Result<Self, ConfigError> {
-        let c: Config = toml::from_str(text).map_err(|e| ConfigError(toml_error(text, &e)))?;
+        let c: Config =
+            toml::from_str(text).map_err(|e| ConfigError(crate::toml_at::de_error(text, &e)))?;
         c.validate()?;
         Ok(c)
     }
@@ -404,7 +292,7 @@ impl Config {
     pub fn load(path: &std::path::Path) -> Result<Self, ConfigError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| ConfigError(format!("cannot read {}: {e}", path.display())))?;
-        Self::from_toml(&text).map_err(|e| ConfigError(at_line(path, &text, &e.0)))
+        Self::from_toml(&text).map_err(|e| ConfigError(crate::toml_at::at_line(path, &text, &e.0)))
     }
 
     /// Checks every value.
@@ -438,9 +326,12 @@ impl Config {
                 b.zeta.len()
             )
         })?;
-        for z in &b.zeta {
+        for (i, z) in b.zeta.iter().enumerate() {
             check(z.is_finite() && *z > 0.0 && *z < 1.0, || {
-                format!("`beam.zeta` = {z}: each ratio must lie in (0, 1)")
+                format!(
+                    "`beam.zeta[{i}]` = {}: each ratio must lie in (0, 1)",
+                    num(*z)
+                )
             })?;
         }
         let p = &self.piezo;
@@ -452,7 +343,8 @@ impl Config {
         within("piezo.rho_f", p.rho_f, DENSITY.0, DENSITY.1, "kg/m^3")?;
         within("piezo.g31", p.g31, 1e-4, 10.0, "V m/N")?;
         within("piezo.c_area", p.c_area, 1e-9, 1e-1, "F/m^2")?;
-        within("|piezo.d31|", p.d31.abs(), 1e-13, 1e-8, "m/V")?;
+        // In magnitude: the sign is the poling direction.
+        within("piezo.d31", p.d31.abs(), 1e-13, 1e-8, "m/V")?;
         let o = &self.optimize;
         within("optimize.alpha", o.alpha, 0.0, 1e12, "")?;
         within("optimize.beta_c", o.beta_c, 0.0, 1e12, "")?;
@@ -463,13 +355,17 @@ impl Config {
                 b.zeta.len()
             )
         })?;
-        for l in &o.lambda {
-            positive("optimize.lambda[]", *l)?;
-            within("optimize.lambda[]", *l, 0.0, 1e6, "")?;
+        for (i, l) in o.lambda.iter().enumerate() {
+            let key = format!("optimize.lambda[{i}]");
+            positive(&key, *l)?;
+            within(&key, *l, 0.0, 1e6, "")?;
         }
         positive("optimize.step", o.step)?;
         check(o.step <= b.length / 2.0, || {
-            format!("`optimize.step` = {} is more than half the beam", o.step)
+            format!(
+                "`optimize.step` = {} is more than half the beam",
+                num(o.step)
+            )
         })?;
         check(b.length / o.step <= 2000.0, || {
             format!(
@@ -503,8 +399,9 @@ impl Config {
         for (i, k) in o.k_c.iter().enumerate() {
             check(k.is_finite() && *k >= 1e-6 && *k <= o.k_max, || {
                 format!(
-                    "`optimize.k_c[{i}]` = {k} must lie in [1e-6, k_max = {}] s",
-                    o.k_max
+                    "`optimize.k_c[{i}]` = {} must lie in [1e-6, k_max = {}] s",
+                    num(*k),
+                    num(o.k_max)
                 )
             })?;
         }
@@ -520,9 +417,10 @@ impl Config {
                 b.zeta.len()
             )
         })?;
-        for r in &a.reference_tip_speed {
-            positive("amplifier.reference_tip_speed[]", *r)?;
-            within("amplifier.reference_tip_speed[]", *r, 0.0, 100.0, "m/s")?;
+        for (i, r) in a.reference_tip_speed.iter().enumerate() {
+            let key = format!("amplifier.reference_tip_speed[{i}]");
+            positive(&key, *r)?;
+            within(&key, *r, 0.0, 100.0, "m/s")?;
         }
         let s = &self.sensitivity;
         for (name, list) in [
@@ -537,21 +435,24 @@ impl Config {
                 format!("`{name}` has {} values; at most 20", list.len())
             })?;
         }
-        for v in &s.alpha {
-            within("sensitivity.alpha[]", *v, 0.0, 1e12, "")?;
-        }
-        for v in &s.beta_c {
-            within("sensitivity.beta_c[]", *v, 0.0, 1e12, "")?;
-        }
-        for v in &s.rho_b {
-            within("sensitivity.rho_b[]", *v, DENSITY.0, DENSITY.1, "kg/m^3")?;
-        }
-        for v in &s.k_max {
-            within("sensitivity.k_max[]", *v, 1e-6, 1e7, "s")?;
-        }
-        for v in &s.tip_mass {
+        let each = |name: &str, list: &[f64], lo: f64, hi: f64, unit: &str| {
+            list.iter()
+                .enumerate()
+                .try_for_each(|(i, v)| within(&format!("{name}[{i}]"), *v, lo, hi, unit))
+        };
+        each("sensitivity.alpha", &s.alpha, 0.0, 1e12, "")?;
+        each("sensitivity.beta_c", &s.beta_c, 0.0, 1e12, "")?;
+        each(
+            "sensitivity.rho_b",
+            &s.rho_b,
+            DENSITY.0,
+            DENSITY.1,
+            "kg/m^3",
+        )?;
+        each("sensitivity.k_max", &s.k_max, 1e-6, 1e7, "s")?;
+        for (i, v) in s.tip_mass.iter().enumerate() {
             within_because(
-                "sensitivity.tip_mass[]",
+                &format!("sensitivity.tip_mass[{i}]"),
                 *v,
                 0.0,
                 MAX_TIP_MASS_RATIO * b.rho_b * b.width * b.t_b * b.length,
@@ -665,7 +566,7 @@ mod tests {
             ),
             (
                 "[amplifier]\nreference_tip_speed = [0.2, -0.1]",
-                "amplifier.reference_tip_speed[]",
+                "amplifier.reference_tip_speed[1]",
             ),
             ("[amplifier]\nenforce = 1", "enforce"),
             ("[beam]\nrho_b = 1e30", "beam.rho_b"),

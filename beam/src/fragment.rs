@@ -27,6 +27,7 @@
 use crate::config::ConfigError;
 use crate::design::{DesignModel, PatchModes, reference_volts_per_gain};
 use crate::optimize::Optimum;
+use crate::toml_at::{array, de_error, number, option_array};
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::modes::UniformMode;
@@ -193,15 +194,21 @@ pub enum ModesChoice {
 #[derive(Clone, Debug, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Computed {
+    #[serde(deserialize_with = "array")]
     omega: [f64; 2],
-    #[serde(default)]
+    #[serde(default, deserialize_with = "option_array")]
     frequency_hz: Option<[f64; 2]>,
+    #[serde(deserialize_with = "array")]
     zeta: [f64; 2],
+    #[serde(deserialize_with = "array")]
     slope_diff: [f64; 2],
-    #[serde(default)]
+    #[serde(default, deserialize_with = "option_array")]
     c_a: Option<[f64; 2]>,
+    #[serde(deserialize_with = "array")]
     mass_integral: [f64; 2],
+    #[serde(deserialize_with = "array")]
     moment_integral: [f64; 2],
+    #[serde(deserialize_with = "array")]
     tip: [f64; 2],
     #[serde(default)]
     beam_mass: Option<f64>,
@@ -221,9 +228,16 @@ struct Section {
     k_c_paper_modes: Option<f64>,
     #[serde(default)]
     modes: ModesChoice,
+    #[serde(deserialize_with = "array")]
     slope_diff: [f64; 2],
     #[serde(default)]
     computed: Option<Computed>,
+}
+
+/// A document's `[piezo]` table; its other tables are its reader's (a scenario's, a model's).
+#[derive(serde::Deserialize)]
+struct WithPiezo {
+    piezo: Option<Section>,
 }
 
 /// A `[piezo]` table read back into the core's types.
@@ -257,17 +271,10 @@ impl PiezoChoice {
 /// Reads the `[piezo]` table of a TOML document (a scenario file or the fragment alone) and
 /// checks it against link 2 of length `a2` [m]. Errors name the key.
 pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
-    let doc: toml::Table =
-        toml::from_str(text).map_err(|e| ConfigError(crate::config::toml_error(text, &e)))?;
-    let table = doc
-        .get("piezo")
-        .cloned()
+    let doc: WithPiezo = toml::from_str(text).map_err(|e| ConfigError(de_error(text, &e)))?;
+    let s = doc
+        .piezo
         .ok_or_else(|| ConfigError("no [piezo] table".into()))?;
-    let s: Section = table.try_into().map_err(|e: toml::de::Error| {
-        // One line: the message, then the key it is about.
-        let msg = e.to_string();
-        ConfigError(format!("[piezo]: {}", msg.trim().replace('\n', " ")))
-    })?;
     let fin = |name: &str, v: f64| {
         if v.is_finite() {
             Ok(())
@@ -287,7 +294,8 @@ pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
     if !(s.x_a >= 0.0 && s.l_a > 0.0 && s.x_a + s.l_a <= a2 + 1e-9) {
         return Err(ConfigError(format!(
             "`piezo.x_a` = {}, `piezo.l_a` = {}: the patch must lie on link 2 (0 <= x_a, 0 < l_a, x_a + l_a <= {a2})",
-            s.x_a, s.l_a
+            number(s.x_a),
+            number(s.l_a)
         )));
     }
     // Physical ranges (SI); the f32 controller runs these values.
@@ -301,14 +309,16 @@ pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
             && !(v.is_finite() && v > 0.0 && v <= hi)
         {
             return Err(ConfigError(format!(
-                "`piezo.{n}` = {v} must be > 0 and at most {hi:e}"
+                "`piezo.{n}` = {} must be > 0 and at most {hi:e}",
+                number(v)
             )));
         }
     }
-    for d in s.slope_diff {
+    for (i, d) in s.slope_diff.iter().enumerate() {
         if !(d.is_finite() && d.abs() <= 1e4) {
             return Err(ConfigError(format!(
-                "`piezo.slope_diff` = {d} must be finite, at most 1e4 1/(m sqrt(kg)) in magnitude"
+                "`piezo.slope_diff[{i}]` = {} must be finite, at most 1e4 1/(m sqrt(kg)) in magnitude",
+                number(*d)
             )));
         }
     }
@@ -319,8 +329,9 @@ pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
         && !agree(c_s, s.k_s / s.k_a)
     {
         return Err(ConfigError(format!(
-            "`piezo.c_s` = {c_s} disagrees with k_s / k_a = {}",
-            s.k_s / s.k_a
+            "`piezo.c_s` = {} disagrees with k_s / k_a = {}",
+            number(c_s),
+            number(s.k_s / s.k_a)
         )));
     }
     if let Some(c) = &s.computed {
@@ -343,7 +354,8 @@ pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
             && !(m.is_finite() && m > 0.0)
         {
             return Err(ConfigError(format!(
-                "`piezo.computed.beam_mass` = {m} must be > 0"
+                "`piezo.computed.beam_mass` = {} must be > 0",
+                number(m)
             )));
         }
     }
@@ -370,7 +382,11 @@ pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
         }
     };
     for (i, v) in slope.iter().enumerate() {
-        fin(&format!("slope_diff[{i}]"), *v)?;
+        let key = match s.modes {
+            ModesChoice::Paper => format!("slope_diff[{i}]"),
+            ModesChoice::Computed => format!("computed.slope_diff[{i}]"),
+        };
+        fin(&key, *v)?;
     }
     Ok(PiezoChoice {
         patch: PiezoPatch {

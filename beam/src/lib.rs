@@ -4,6 +4,7 @@
 //! the piezo patch (Eqs. 1–4), the closed modal loop of the piezo rate feedback and its
 //! dissipated energy (Eqs. 21–33), and the placement optimization (Eqs. 34–35).
 //! `docs/optimization.md` states every choice made where the paper is silent.
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 pub mod cli;
 pub mod config;
@@ -15,3 +16,4 @@ pub mod optimize;
 pub mod plot;
 pub mod section;
 pub mod segmented;
+pub mod toml_at;

@@ -55,6 +55,27 @@ pub struct Options {
     pub bias: f32,
 }
 
+impl Options {
+    /// The settings within what a bring-up may ask of an unknown arm (checked before any
+    /// connection too).
+    pub fn check(&self) -> Result<(), ConsoleError> {
+        if self.torque > 0.0
+            && self.torque <= 100.0
+            && self.nudge > 0.0
+            && self.nudge <= 0.5
+            && self.bias.abs() > 0.0
+            && self.bias.abs() <= 200.0
+        {
+            Ok(())
+        } else {
+            Err(ConsoleError::Usage(
+                "bringup takes --torque in (0, 100] N·m, --nudge in (0, 0.5] rad, --bias in (0, 200] V"
+                    .into(),
+            ))
+        }
+    }
+}
+
 impl Default for Options {
     fn default() -> Self {
         Self {
@@ -179,18 +200,7 @@ impl Report {
 /// Runs the bring-up on `c`; the report says what passed. An error is a failure of the line
 /// or of the tool, not of a check.
 pub fn run(c: &mut Client, o: &Options) -> Result<Report, ConsoleError> {
-    if !(o.torque > 0.0
-        && o.torque <= 100.0
-        && o.nudge > 0.0
-        && o.nudge <= 0.5
-        && o.bias.abs() > 0.0
-        && o.bias.abs() <= 200.0)
-    {
-        return Err(ConsoleError::Usage(
-            "bringup takes --torque in (0, 100] N·m, --nudge in (0, 0.5] rad, --bias in (0, 200] V"
-                .into(),
-        ));
-    }
+    o.check()?;
     let mut r = Report::new();
     let s = c.status()?;
     let ok = match (s.mode, s.fault) {
@@ -230,11 +240,11 @@ pub fn run(c: &mut Client, o: &Options) -> Result<Report, ConsoleError> {
         return finish(c, r, None, was_armed);
     }
     let saved = Saved {
-        tau_max: [c.get(Param::TauMax(0))?, c.get(Param::TauMax(1))?],
+        tau_max: [c.get(Param::TauMax0)?, c.get(Param::TauMax1)?],
         k_c: c.get(Param::Kc)?,
     };
-    c.set(Param::TauMax(0), o.torque.min(saved.tau_max[0]))?;
-    c.set(Param::TauMax(1), o.torque.min(saved.tau_max[1]))?;
+    c.set(Param::TauMax0, o.torque.min(saved.tau_max[0]))?;
+    c.set(Param::TauMax1, o.torque.min(saved.tau_max[1]))?;
     c.set(Param::Kc, 0.0)?;
     let outcome = experiments(c, o, &mut r);
     // The experiments' error first; the restore's only when they had none.
@@ -277,8 +287,8 @@ fn finish(
         let _ = c.ask(Command::Set(Param::VaBias, 0.0))?;
     }
     if let Some(saved) = saved {
-        c.set(Param::TauMax(0), saved.tau_max[0])?;
-        c.set(Param::TauMax(1), saved.tau_max[1])?;
+        c.set(Param::TauMax0, saved.tau_max[0])?;
+        c.set(Param::TauMax1, saved.tau_max[1])?;
         if !r.failed().is_some_and(|f| f.name.starts_with("film")) {
             c.set(Param::Kc, saved.k_c)?;
         }

@@ -12,6 +12,7 @@
 //! Units are the link's (SI; angles in rad, torques in N·m, voltages in V, times in s).
 
 pub mod bringup;
+pub mod check;
 pub mod client;
 pub mod identify;
 pub mod interrupt;

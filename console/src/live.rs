@@ -87,8 +87,8 @@ pub struct View {
     /// Frames kept per plotted point (1 until the window would hold more than [`POINTS`]).
     every: u64,
     series: [VecDeque<(f64, f64)>; SERIES],
-    /// The latest values of every channel (link order).
-    latest: Option<Vec<f32>>,
+    /// The latest frame.
+    latest: Option<Telemetry>,
     /// The latest status.
     status: Option<Status>,
     /// Frames received and lost (sequence gaps).
@@ -132,7 +132,7 @@ impl View {
     /// Takes telemetry frames (every channel, [`Channels::ALL`]).
     pub fn ingest(&mut self, frames: &[Telemetry]) {
         for f in frames {
-            if f.channels.0 != Channels::ALL || f.values.len() < 12 {
+            if f.channels.0 != Channels::ALL {
                 continue;
             }
             if let Some(s) = self.last_seq {
@@ -141,7 +141,7 @@ impl View {
             self.last_seq = Some(f.seq);
             self.frames += 1;
             let tick0 = *self.tick0.get_or_insert(f.tick);
-            self.latest = Some(f.values.to_vec());
+            self.latest = Some(f.clone());
             if !self.frames.is_multiple_of(self.every) {
                 continue;
             }
@@ -183,7 +183,7 @@ impl View {
 
     /// The latest frame's values (NaN before the first).
     fn now(&self) -> Values<'_> {
-        Values(self.latest.as_deref().unwrap_or(&[]))
+        Values(self.latest.as_ref())
     }
 
     /// Draws the whole view into `frame`.

@@ -92,6 +92,10 @@ enum Action {
         /// Replace files of the same name that no flexarm command wrote.
         #[arg(long)]
         force: bool,
+        /// The model file the firmware was built from (`cargo sim firmware-params`'s source),
+        /// which the recording carries for `compare`.
+        #[arg(long, default_value = "firmware/piezo.toml")]
+        model: PathBuf,
         /// The output folder.
         out: PathBuf,
         /// A move to start once the recording runs.
@@ -195,7 +199,7 @@ enum Action {
     },
 }
 
-#[derive(Subcommand)]
+#[derive(Subcommand, Clone)]
 enum MoveKind {
     /// From the held pose to joint targets [rad].
     Trapezoid {
@@ -263,12 +267,11 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> Result<(), ConsoleError> {
+    check_arguments(&cli)?;
     if let Action::Get { name } = &cli.command
         && name == "list"
     {
-        for (n, _, unit) in params::NAMES {
-            println!("{n} [{unit}]");
-        }
+        print!("{}", params::list());
         return Ok(());
     }
     // Offline: a recording against the simulator.
@@ -313,12 +316,6 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             ));
         }
     };
-    if !(cli.wait.is_finite() && cli.wait > 0.0 && cli.wait <= 600.0) {
-        return Err(ConsoleError::Usage(format!(
-            "--wait {} s: give 0 to 600 s",
-            cli.wait
-        )));
-    }
     let mut c = Client::connect(link, Duration::from_secs_f64(cli.wait))?;
     if cli.arm {
         c.done("arm", Command::Arm)?;
@@ -380,19 +377,16 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             seconds,
             decimation,
             force,
+            model,
             out,
             then,
         } => {
-            if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
-                return Err(ConsoleError::Usage(format!(
-                    "--seconds {seconds}: give 0 to 3600 s"
-                )));
-            }
             let mv = then.map(|m| to_move(m, path.as_deref())).transpose()?;
             let mut r = record::record(
                 &mut c,
                 seconds,
                 decimation,
+                &model,
                 mv.map(|(_, m)| m),
                 &mut |c: &mut Client| match mv {
                     Some((what, m)) => {
@@ -422,11 +416,6 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             window,
             then,
         } => {
-            if !(1.0..=600.0).contains(&window) {
-                return Err(ConsoleError::Usage(format!(
-                    "--window {window}: give 1 to 600 s"
-                )));
-            }
             let mv = then.map(|m| to_move(m, path.as_deref())).transpose()?;
             let decimation = c.subscribe_fastest(decimation)?;
             let mut view = live::View::new(
@@ -461,14 +450,11 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             // The folder first: a folder the tool may not write is named before the arm moves.
             let dir = flexarm_sim::outdir::OutDir::open(&out, "identify", force)
                 .map_err(ConsoleError::Io)?;
-            use flexarm_sim::identify::{self, inertia, modes, workflow};
+            use flexarm_sim::identify::{self, workflow};
             let staging = dir.staging();
             let report = match experiment.as_str() {
                 "inertia" => {
-                    let plan = inertia::InertiaPlan {
-                        moves,
-                        ..Default::default()
-                    };
+                    let plan = inertia_plan(moves);
                     let trace = flexarm_console::identify::inertia(&mut c, &plan)?;
                     workflow::save_record(staging, "inertia", &trace).map_err(ConsoleError::Io)?;
                     workflow::save_inertia(staging, &trace, None, None)
@@ -476,12 +462,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                         .1
                 }
                 "modes" => {
-                    let plan = modes::ModesPlan {
-                        seconds,
-                        piezo_volts: volts,
-                        tap,
-                        ..Default::default()
-                    };
+                    let plan = modes_plan(seconds, volts, tap);
                     let (trace, window) = flexarm_console::identify::modes(&mut c, &plan)?;
                     let film_range =
                         f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
@@ -498,12 +479,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     .1
                 }
                 "decay" => {
-                    use flexarm_sim::identify::decay;
-                    let plan = decay::DecayPlan {
-                        taps,
-                        volts,
-                        ..Default::default()
-                    };
+                    let plan = decay_plan(taps, volts);
                     let (trace, window) = flexarm_console::identify::decay(&mut c, &plan)?;
                     let film_range =
                         f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
@@ -577,6 +553,115 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         Action::Compare { .. } => {}
     }
     Ok(())
+}
+
+/// Every argument against its rule before anything connects, starts QEMU or arms
+/// (`flexarm_console::check`): a mistake is one line and exit status 1 whether or not a
+/// firmware answers. A waypoint file is checked as it is read.
+fn check_arguments(cli: &Cli) -> Result<(), ConsoleError> {
+    use flexarm_console::check;
+    use flexarm_sim::identify::{self, inertia, modes};
+    check::up_to("--wait", cli.wait, 600.0, "s")?;
+    let decimation = |d: u16| match d {
+        0 => Err(ConsoleError::Usage(
+            "--decimation 0: give 1 or more motor periods a frame".into(),
+        )),
+        _ => Ok(()),
+    };
+    let then = match &cli.command {
+        Action::Get { name } if name != "list" => params::parse(name).map(|_| None)?,
+        Action::Set { name, value } => {
+            let (p, _) = params::parse(name)?;
+            check::set_value(name, p, *value).map(|()| None)?
+        }
+        Action::Move(m) => Some(m),
+        Action::Record {
+            seconds,
+            decimation: d,
+            then,
+            ..
+        } => {
+            check::up_to("--seconds", *seconds, 3600.0, "s")?;
+            decimation(*d)?;
+            then.as_ref()
+        }
+        Action::Live {
+            decimation: d,
+            window,
+            then,
+        } => {
+            check::within("--window", *window, 1.0, 600.0, "s")?;
+            decimation(*d)?;
+            then.as_ref()
+        }
+        Action::Compare {
+            within: Some(f), ..
+        } => check::positive("--within", *f, "(a factor)").map(|()| None)?,
+        Action::Bringup {
+            torque,
+            nudge,
+            bias,
+        } => flexarm_console::bringup::Options {
+            torque: *torque,
+            nudge: *nudge,
+            bias: *bias,
+        }
+        .check()
+        .map(|()| None)?,
+        Action::Identify {
+            experiment,
+            taps,
+            moves,
+            seconds,
+            volts,
+            tap,
+            speeds,
+            cruise,
+            ..
+        } => {
+            let usage = |e: identify::IdentifyError| ConsoleError::Usage(e.to_string());
+            match experiment.as_str() {
+                "inertia" => inertia::moves(&inertia_plan(*moves)).map(drop),
+                "modes" => modes::excitation(&modes_plan(*seconds, *volts, *tap)).map(drop),
+                "decay" => decay_plan(*taps, *volts).excitation().map(drop),
+                _ => identify::check_speeds(speeds).map(drop),
+            }
+            .map_err(usage)?;
+            check::positive("--cruise", *cruise, "s").map(|()| None)?
+        }
+        _ => None,
+    };
+    match then {
+        Some(m) => check::movement(&to_move(m.clone(), None)?.1),
+        None => Ok(()),
+    }
+}
+
+/// The inertia experiment of `moves` moves.
+fn inertia_plan(moves: usize) -> flexarm_sim::identify::inertia::InertiaPlan {
+    flexarm_sim::identify::inertia::InertiaPlan {
+        moves,
+        ..Default::default()
+    }
+}
+
+/// The modes experiment: `seconds` long, bias steps of `volts`, joint 2's moves of `tap`.
+fn modes_plan(seconds: f64, volts: f64, tap: f64) -> flexarm_sim::identify::modes::ModesPlan {
+    flexarm_sim::identify::modes::ModesPlan {
+        seconds,
+        piezo_volts: volts,
+        tap,
+        ..Default::default()
+    }
+}
+
+/// The decay experiment: `taps` taps of `volts`.
+fn decay_plan(taps: usize, volts: f64) -> flexarm_sim::identify::decay::DecayPlan {
+    flexarm_sim::identify::decay::DecayPlan {
+        taps,
+        volts,
+        ..Default::default()
+    }
 }
 
 /// The move a subcommand names (a waypoint path's points come from `path`, read before).

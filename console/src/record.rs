@@ -8,28 +8,32 @@
 //!   columns, `θ_d = θ̂ − (θ̂ − θ_d)` from the error channel, the tip deflection computed from
 //!   them with the paper's model; the modal rates, not streamed, are `NaN`.
 //! - `recording_firmware.svg`: the simulator's figure of a run, of the recording.
-//! - `recording_firmware.toml`: what `compare` needs: the firmware, its loop rates, `k_c`, the
-//!   move and the pose it started from, the frames lost.
+//! - `recording_firmware.toml`: what `compare` needs: the firmware, its board and loop rates,
+//!   the hash of the parameters it booted with (the handshake's) and the model file that gives
+//!   them (its text, checked against the hash when recording), every tunable parameter's value
+//!   when the recording started, the move and the pose it started from, the frames lost.
 //!
-//! `compare` plans the recorded move with the core's drive (the firmware's code), simulates it
-//! at the firmware's rates with its observer and sensors (`flexarm_sim::sim`), aligns the two on
-//! the reference θ_d, and prints the Eq. 37/38 indices of both; `--within F` fails when the
-//! recording's tracking indices exceed `F` times the simulation's.
+//! `compare` rebuilds the board's configuration from the recorded model (`flexarm_machine::
+//! BoardConfig`, as `cargo sim firmware-params` generates the firmware's), refuses a recording
+//! whose hash it does not reproduce, applies the recorded parameters, plans the recorded move
+//! with the drive, runs it on the host's rig (`flexarm_sim::sim`: the firmware's controller and
+//! drive at its rates, with its sensors; the QEMU board's arm for a QEMU recording, the model
+//! for a board's), aligns the two on the reference θ_d, and prints the Eq. 37/38 indices of
+//! both; `--within F` fails when the recording's tracking indices exceed `F` times the
+//! simulation's.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use flexarm_beam::toml_at::{array, at_line, de_error, option_array};
 use flexarm_core::Vector2;
-use flexarm_core::control::motor::MotorLaw;
-use flexarm_core::controller::Controller;
-use flexarm_core::drive::{Drive, MoveLimits, MoveRequest, Waypoint};
-use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
+use flexarm_core::drive::{MoveRequest, Waypoint};
 use flexarm_core::plant::State;
 use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::JointTrajectory;
 use flexarm_link::Command;
-use flexarm_link::msg::{Channels, Move, Param, Telemetry};
+use flexarm_link::msg::{Channels, Move, Telemetry};
 use flexarm_sim::outdir::OutDir;
 use flexarm_sim::sim::{Sample, SimConfig, Summary, simulate_segments, summarize};
 use flexarm_sim::study::{Case, Outcome};
@@ -56,13 +60,27 @@ pub struct Info {
     pub k_c: f32,
     /// The joints' `K_p` the firmware ran [N·m·s/rad] (absent from older recordings: then the
     /// core's `Gains::default_for(motor_hz)`).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "option_array")]
     pub kp: Option<[f32; 2]>,
+    /// Which board (absent from older recordings).
+    #[serde(default)]
+    pub board: Option<flexarm_link::msg::Board>,
+    /// The hash of the parameters the firmware booted with (its handshake's).
+    #[serde(default)]
+    pub params_hash: Option<u32>,
+    /// The model file the firmware was built from, its text: its configuration's hash is
+    /// `params_hash` (absent when the console was not given it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
+    /// Every tunable parameter's value when the recording started, by the console's names.
+    #[serde(default)]
+    pub params: std::collections::BTreeMap<String, f32>,
     /// Frames recorded.
     pub frames: usize,
     /// Frames lost on the way (gaps in the sequence numbers).
     pub lost: u64,
     /// The pose held when the move started (the drive's reference) [rad].
+    #[serde(deserialize_with = "array")]
     pub from: [f32; 2],
     /// The move.
     #[serde(rename = "move")]
@@ -80,42 +98,45 @@ pub struct Recording {
     pub info: Info,
 }
 
-/// A telemetry frame of every channel ([`Channels::ALL`]) read by name: what `record`, `live`,
-/// `bringup` and `identify` take from the stream. A value the frame lacks reads NaN.
+/// A telemetry frame's values read by name (`Telemetry::value`: the frame's own channels say
+/// where each is, so a frame of any subset reads right): what `record`, `live`, `bringup` and
+/// `identify` take from the stream. A value the frame lacks, or of no frame, reads NaN.
 #[derive(Clone, Copy)]
-pub struct Values<'a>(pub &'a [f32]);
+pub struct Values<'a>(pub Option<&'a Telemetry>);
 
 impl Values<'_> {
-    fn at(&self, i: usize) -> f64 {
-        self.0.get(i).map_or(f64::NAN, |&v| f64::from(v))
+    fn at(&self, bit: u16, j: usize) -> f64 {
+        self.0
+            .and_then(|f| f.value(bit, j))
+            .map_or(f64::NAN, f64::from)
     }
     /// Tracking error `θ_j − θ_d,j` [rad].
     pub fn error(&self, j: usize) -> f64 {
-        self.at(j)
+        self.at(Channels::ERROR, j)
     }
     /// Estimated angle `θ̂_j` [rad].
     pub fn theta(&self, j: usize) -> f64 {
-        self.at(2 + j)
+        self.at(Channels::THETA, j)
     }
     /// Estimated modal coordinate `δ̂_j` [√kg·m].
     pub fn delta(&self, j: usize) -> f64 {
-        self.at(4 + j)
+        self.at(Channels::DELTA, j)
     }
     /// Torque command `τ_j` [N·m].
     pub fn tau(&self, j: usize) -> f64 {
-        self.at(6 + j)
+        self.at(Channels::TAU, j)
     }
     /// Piezo command [V].
     pub fn v_a(&self) -> f64 {
-        self.at(8)
+        self.at(Channels::V_A, 0)
     }
     /// Film voltage [V].
     pub fn v_f(&self) -> f64 {
-        self.at(9)
+        self.at(Channels::V_F, 0)
     }
     /// Load of the piezo (0) or motor (1) loop [fraction of its period].
     pub fn load(&self, i: usize) -> f64 {
-        self.at(10 + i)
+        self.at(Channels::LOAD, i)
     }
     /// The reference `θ_d = θ̂ − (θ̂ − θ_d)` [rad].
     pub fn reference(&self, j: usize) -> f64 {
@@ -129,17 +150,25 @@ impl Values<'_> {
 
 /// The frame's values by name.
 pub fn values(f: &Telemetry) -> Values<'_> {
-    Values(&f.values)
+    Values(Some(f))
 }
 
-/// The frame as a sample at `t` [s] (all channels, in [`Channels`] order); `None` for a frame
-/// without them.
+/// The channels a recording's sample needs.
+const SAMPLED: u16 = Channels::ERROR
+    | Channels::THETA
+    | Channels::DELTA
+    | Channels::TAU
+    | Channels::V_A
+    | Channels::V_F;
+
+/// The frame as a sample at `t` [s]; `None` for a frame without the channels it needs
+/// (`SAMPLED`).
 pub(crate) fn sample(
     f: &Telemetry,
     t: f64,
     model: &flexarm_core::model::Model<f64>,
 ) -> Option<Sample> {
-    if f.values.len() < 10 {
+    if f.channels.0 & SAMPLED != SAMPLED {
         return None;
     }
     let v = values(f);
@@ -166,13 +195,22 @@ pub fn record(
     c: &mut Client,
     seconds: f64,
     decimation: u16,
+    model: &Path,
     mv: Option<Move>,
     start: &mut dyn FnMut(&mut Client) -> Result<(), ConsoleError>,
 ) -> Result<Recording, ConsoleError> {
     let hello = c.hello.clone();
     let motor_hz = f64::from(hello.motor_hz);
-    let k_c = c.get(Param::Kc)?;
-    let kp = [c.get(Param::Kp(0))?, c.get(Param::Kp(1))?];
+    let model_text = model_of(model, &hello);
+    let mut params = std::collections::BTreeMap::new();
+    for p in flexarm_link::params::PARAMS {
+        params.insert(p.name.to_string(), c.get(p.param)?);
+    }
+    let k_c = params.get("kc").copied().unwrap_or(f32::NAN);
+    let kp = [
+        params.get("kp0").copied().unwrap_or(f32::NAN),
+        params.get("kp1").copied().unwrap_or(f32::NAN),
+    ];
     let dropped_before = c.status()?.telemetry_dropped;
     c.done(
         "subscribe",
@@ -239,6 +277,10 @@ pub fn record(
         decimation,
         k_c,
         kp: Some(kp),
+        board: Some(hello.board),
+        params_hash: Some(hello.params_hash),
+        model: model_text,
+        params,
         frames: trace.len(),
         lost: lost + u64::from(dropped),
         from,
@@ -246,6 +288,37 @@ pub fn record(
         waypoints: None,
     };
     Ok(Recording { trace, info })
+}
+
+/// The text of the model file `path` when the parameters it gives the board `hello` names are
+/// the ones the firmware runs (their hash, `hello.params_hash`); otherwise `None`, said on stderr
+/// (the recording is kept; `compare` will refuse it).
+fn model_of(path: &Path, hello: &flexarm_link::msg::Hello) -> Option<String> {
+    let warn = |why: String| {
+        eprintln!(
+            "flexarm: warning: {}: {why}; `compare` will refuse this recording (give the model file the firmware was built from with --model)",
+            path.display()
+        );
+        None
+    };
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) => return warn(e.to_string()),
+    };
+    match flexarm_sim::firmware_params::design(&text) {
+        Ok(p) => {
+            let hash = p.board(hello.board).hash();
+            if hash == hello.params_hash {
+                Some(text)
+            } else {
+                warn(format!(
+                    "gives the parameters {hash:08x}, the firmware runs {:08x}",
+                    hello.params_hash
+                ))
+            }
+        }
+        Err(e) => warn(e.to_string()),
+    }
 }
 
 /// A progress bar in tenths of a second, on a terminal only.
@@ -373,12 +446,8 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
     let text = std::fs::read_to_string(&toml_path).map_err(|e| {
         ConsoleError::Usage(format!("{shown}: {e} (record writes it beside the CSV)"))
     })?;
-    let info: Info = toml::from_str(&text).map_err(|e| {
-        let line = e.span().map_or(1, |s| {
-            text[..s.start.min(text.len())].lines().count().max(1)
-        });
-        ConsoleError::Usage(format!("{shown}:{line}: {}", e.message()))
-    })?;
+    let info: Info = toml::from_str(&text)
+        .map_err(|e| ConsoleError::Usage(at_line(&toml_path, &text, &de_error(&text, &e))))?;
     let Some(mv) = info.mv else {
         return Err(ConsoleError::Usage(format!(
             "{shown}: the recording started no move; record one with a move to compare (flexarm record … trapezoid …)"
@@ -390,42 +459,14 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
             "{shown}: motor_hz, piezo_hz or k_c out of range"
         )));
     }
-    let request = match mv {
-        Move::Trapezoid {
-            target,
-            move_time,
-            ramp_time,
-        } => MoveRequest::Trapezoid {
-            target: Vector2::new(target[0], target[1]),
-            move_time,
-            ramp_time,
-        },
-        Move::Circle {
-            centre,
-            radius,
-            period,
-            ramp_time,
-            clockwise,
-        } => MoveRequest::Circle {
-            centre: Vector2::new(centre[0], centre[1]),
-            radius,
-            period,
-            ramp_time,
-            clockwise,
-        },
-        Move::Waypoints { count } => MoveRequest::Waypoints {
-            count: count.into(),
-        },
-    };
+    let (board, sim) = firmware_of(&info, &text, &shown.to_string())?;
+    let request = flexarm_machine::session::move_request(&mv);
     // The drive's own plan of the move, from the pose recorded at its start.
-    let mut ctrl = Controller::<f32>::paper(
-        MotorLaw::Tracking,
-        JointTrajectory::Hold(Vector2::new(info.from[0], info.from[1])),
-        1.0 / info.piezo_hz as f32,
-        1.0 / info.motor_hz as f32,
-        gain(&GAIN_1KHZ),
-    );
-    let mut drive = Drive::new(&mut ctrl, info.motor_hz, Ticks(0), MoveLimits::default());
+    let mut ctrl = board.controller(JointTrajectory::Hold(Vector2::new(
+        info.from[0],
+        info.from[1],
+    )));
+    let mut drive = board.drive(&mut ctrl, Ticks(0));
     let from = Vector2::new(info.from[0], info.from[1]);
     if let MoveRequest::Waypoints { count } = request {
         let points: Vec<Waypoint<f32>> = info
@@ -495,20 +536,10 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
             plan.duration
         )));
     }
-    let board = SimConfig::board(f64::from(info.motor_hz), f64::from(info.piezo_hz));
-    let mut gains = board.gains;
-    if let Some([k1, k2]) = info.kp {
-        (gains.kp.x, gains.kp.y) = (k1, k2);
-    }
     let cfg = SimConfig {
-        piezo: Some(flexarm_core::control::piezo::PiezoGains {
-            k_c: info.k_c,
-            ..Default::default()
-        }),
-        gains,
         duration: duration + 1.0 / f64::from(info.motor_hz),
         tail_window: 1.0,
-        ..board
+        ..sim
     };
     let (_, simulated) = simulate_segments(&cfg, &segments, true)
         .map_err(|e| ConsoleError::Usage(format!("the simulation: {e}")))?;
@@ -554,6 +585,60 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
         traces: (recorded, simulated),
         reference_gap,
     })
+}
+
+/// The firmware a recording ran, rebuilt: its board's configuration from the recorded model
+/// (refused unless its hash is the recorded one), with the recorded parameters applied, and the
+/// simulator's run of it: the QEMU board's arm (the paper's, the patch's slopes there) for a
+/// QEMU recording, the model itself for a board's; the board's sensors. `shown` names the
+/// description file in errors; `text` is its text, for the line of a key.
+fn firmware_of(
+    info: &Info,
+    text: &str,
+    shown: &str,
+) -> Result<(flexarm_machine::BoardConfig, SimConfig), ConsoleError> {
+    let line = |key: &str| {
+        text.lines()
+            .position(|l| l.trim_start().starts_with(key))
+            .map_or(1, |i| i + 1)
+    };
+    let (Some(board), Some(hash), Some(model)) = (info.board, info.params_hash, &info.model) else {
+        return Err(ConsoleError::Usage(format!(
+            "{shown}:{}: params_hash: the recording does not carry the model its firmware was built from (recorded without it, or by an older console): record again with --model <the firmware's model file>",
+            line("params_hash")
+        )));
+    };
+    let p = flexarm_sim::firmware_params::design(model)
+        .map_err(|e| ConsoleError::Usage(format!("{shown}:{}: model: {e}", line("model"))))?;
+    let mut config = p.board(board);
+    if config.hash() != hash {
+        return Err(ConsoleError::Usage(format!(
+            "{shown}:{}: model: gives the parameters {:08x}, not the recording's {hash:08x}: this console cannot reproduce the firmware",
+            line("model"),
+            config.hash()
+        )));
+    }
+    for (name, v) in &info.params {
+        let (param, _) = crate::params::parse(name).map_err(|_| {
+            ConsoleError::Usage(format!(
+                "{shown}:{}: params.{name}: no such parameter",
+                line(name)
+            ))
+        })?;
+        config.set_param(param, *v);
+    }
+    let (mut arm, mut patch) = (p.arm, p.patch);
+    if board == flexarm_link::msg::Board::Qemu {
+        arm = flexarm_core::params::ArmParams::default();
+        patch.slope_diff = p.qemu_slope_diff;
+    }
+    let sim = SimConfig {
+        arm,
+        patch,
+        machine: Some(config),
+        ..SimConfig::board(f64::from(config.motor_hz()), f64::from(config.piezo_hz))
+    };
+    Ok((config, sim))
 }
 
 /// The comparison's table: index, recording, simulation, ratio.

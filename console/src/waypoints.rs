@@ -1,7 +1,9 @@
 //! A waypoint file: CSV, a header `theta1,theta2,dt` then one waypoint a line, θ1 and θ2 [rad]
 //! in the core's joint frames and `dt` [s] the time from the previous waypoint (from the held
 //! pose, for the first). Blank lines and lines starting with `#` are skipped. An error names the
-//! file, the line and the column.
+//! file, the line and the column. Besides the format, the file is checked against the drive's
+//! rules that do not depend on where the arm holds ([`crate::check::path`]): every point within
+//! the joint ranges, every `dt` at least a motor period, no mean speed above the limit.
 
 use flexarm_core::drive::MAX_WAYPOINTS;
 use flexarm_link::msg::Waypoint;
@@ -40,6 +42,7 @@ pub fn parse(path: &str, text: &str) -> Result<Vec<Waypoint>, ConsoleError> {
         ));
     }
     let mut out = Vec::new();
+    let mut at = Vec::new();
     for (n, line) in lines {
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         if cells.len() != COLUMNS.len() {
@@ -74,10 +77,12 @@ pub fn parse(path: &str, text: &str) -> Result<Vec<Waypoint>, ConsoleError> {
             theta: [v[0], v[1]],
             dt: v[2],
         });
+        at.push(n);
     }
     if out.is_empty() {
         return Err(bad(n, "a header and no waypoint".into()));
     }
+    crate::check::path(&out).map_err(|(i, why)| bad(at.get(i).copied().unwrap_or(n), why))?;
     Ok(out)
 }
 

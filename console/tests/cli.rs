@@ -277,6 +277,22 @@ fn a_waypoint_file_with_errors_is_named_by_line() {
             "theta1,theta2,dt\n\n",
             "none.csv:1: a header and no waypoint",
         ),
+        // The drive's own rules that do not depend on the held pose.
+        (
+            "far.csv",
+            "theta1,theta2,dt\n0.1,0.2,0.5\n1e30,0,0.5\n",
+            "far.csv:3: column `theta1`: 1e30 rad is outside the drive's range -3 to 3 rad",
+        ),
+        (
+            "short_dt.csv",
+            "theta1,theta2,dt\n0.1,0.2,1e-30\n",
+            "short_dt.csv:2: column `dt`: 1e-30 s is shorter than one motor period (0.001 s)",
+        ),
+        (
+            "fast.csv",
+            "theta1,theta2,dt\n0.1,0.2,0.5\n# a comment\n0.1,2.2,0.1\n",
+            "fast.csv:4: θ2 moves 20 rad/s on average from the waypoint before: more than the drive's 3 rad/s",
+        ),
     ];
     for (name, text, needle) in cases {
         // No firmware listens: the file is refused before any connection is tried.
@@ -315,6 +331,97 @@ fn a_waypoint_file_with_errors_is_named_by_line() {
         "/no/such/file.csv: No such file",
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn every_argument_is_checked_before_connecting() {
+    // Nothing listens on port 1: each mistake must be named, not "no answer" or a refused
+    // connection, and nothing connects, starts or arms.
+    let closed = ["--tcp", "127.0.0.1:1"];
+    for (args, needle) in [
+        (
+            &["record", "--seconds", "nan", "out"][..],
+            "--seconds NaN: give more than 0",
+        ),
+        (
+            &["record", "--seconds", "2", "--decimation", "0", "out"],
+            "--decimation 0",
+        ),
+        (
+            &[
+                "move",
+                "trapezoid",
+                "--to",
+                "nan,0",
+                "--time",
+                "2",
+                "--ramp",
+                "0.5",
+            ],
+            "--to NaN,0: θ1 = NaN rad is outside the drive's range -3 to 3 rad",
+        ),
+        (
+            &[
+                "move",
+                "trapezoid",
+                "--to",
+                "0.5,2.9",
+                "--time",
+                "2",
+                "--ramp",
+                "0.5",
+            ],
+            "θ2 = 2.9 rad is outside the drive's range -2.7 to 2.7 rad",
+        ),
+        (
+            &[
+                "move",
+                "trapezoid",
+                "--to",
+                "0.5,0",
+                "--time",
+                "2",
+                "--ramp",
+                "1.5",
+            ],
+            "--time 2 --ramp 1.5: give finite times with 0 < ramp <= time / 2",
+        ),
+        (
+            &[
+                "live",
+                "circle",
+                "--centre",
+                "0.5,0.5",
+                "--radius=-0.1",
+                "--period",
+                "4",
+                "--ramp",
+                "1",
+            ],
+            "--radius -0.1",
+        ),
+        (&["set", "kp1", "nan"], "set kp1 NaN: out of its range"),
+        (&["set", "lambda0", "0"], "set lambda0 0: out of its range"),
+        (&["set", "va_min", "5"], "set va_min 5: out of its range"),
+        (&["set", "link_timeout", "inf"], "set link_timeout inf"),
+        (&["get", "nope"], "no parameter `nope`"),
+        (&["--wait=-1", "status"], "--wait -1"),
+        (&["live", "--window", "0"], "--window 0"),
+        (&["compare", "--within=-1", "x.csv"], "--within -1"),
+        (&["identify", "modes", "out", "--seconds", "nan"], "NaN s"),
+        (
+            &["identify", "friction", "out", "--cruise=-1"],
+            "--cruise -1",
+        ),
+        (&["bringup", "--nudge", "2"], "--nudge in (0, 0.5] rad"),
+    ] {
+        let mut all = closed.to_vec();
+        all.extend_from_slice(args);
+        fails_with(&all, needle);
+    }
+    // A value the core accepts goes on to the connection (and fails there).
+    let o = flexarm(&["--tcp", "127.0.0.1:1", "set", "va_min", "-30"]);
+    assert!(!text(&o).1.contains("out of its range"), "{}", text(&o).1);
 }
 
 /// A waypoint file is uploaded in chunks of 8, in order, then run; the tool waits for its end.

@@ -56,6 +56,12 @@ pub struct Controller<T> {
     pub observer: Observer<T>,
     /// Physical ranges of the measurements.
     sensors: SensorLimits<T>,
+    /// The largest encoder step of one motor period, `speed_max × motor_period` [rad], and
+    /// the patch's modal force per volt `C_a` (Eq. 18): computed at construction from
+    /// `sensors`, `motor_period` and `patch`, which are construction parameters (the observer
+    /// holds the patch's film map the same way).
+    encoder_step: T,
+    c_a: Vector2<T>,
     /// Desired motion.
     pub trajectory: JointTrajectory<T>,
     /// Motor-loop period [s].
@@ -102,6 +108,8 @@ impl<T: Real> Controller<T> {
             patch,
             observer,
             sensors,
+            encoder_step: sensors.speed_max * motor_period,
+            c_a: patch.c_a(),
             trajectory,
             motor_period,
             latch: SafetyLatch::default(),
@@ -203,6 +211,7 @@ impl<T: Real> Controller<T> {
     /// Latches `fault` from outside (overrun, amplifier fault input, watchdog, bad
     /// configuration). Returns `true` if it is the first.
     pub fn trip(&mut self, fault: Fault) -> bool {
+        crate::hint::cold();
         self.v_a = T::zero();
         self.film_gate = -T::one();
         self.latch.trip(fault)
@@ -279,7 +288,9 @@ impl<T: Real> Controller<T> {
     }
 
     /// One motor step at `t` [s] since the trajectory started. `y` is `None` when no new
-    /// sample arrived this period.
+    /// sample arrived this period. Inlined into its caller, which then builds only the parts of
+    /// the report it reads (the firmware's drive has one call).
+    #[inline(always)]
     pub fn motor_step(&mut self, t: T, y: Option<&Measurement<T>>) -> MotorReport<T> {
         let law = self.run_motor(t, y, None);
         self.report(law)
@@ -302,7 +313,7 @@ impl<T: Real> Controller<T> {
         if let Some(y) = y {
             let checked = self
                 .sensors
-                .check(y, self.previous.as_ref(), self.motor_period);
+                .check_step(y, self.previous.as_ref(), self.encoder_step);
             self.check(checked)?;
             // The range check has rejected NaN and ±∞.
             self.observer.correct_finite(y);
@@ -351,6 +362,7 @@ impl<T: Real> Controller<T> {
         MotorReport { command, law }
     }
 
+    #[inline(always)]
     fn run_motor(
         &mut self,
         t: T,
@@ -367,18 +379,27 @@ impl<T: Real> Controller<T> {
             return None;
         }
         self.take(y)?;
+        // The trajectory's sample before the terms of B(q̂): its branches then hold none of
+        // them live.
+        let target = self.trajectory.sample(t);
         let (q_hat, qd_hat) = self.observer.state();
         // One set of B(q) terms serves the law and the observer's prediction when the law runs
         // on the estimate.
-        let terms_hat = self.motor.model.terms(&q_hat);
-        let target = self.trajectory.sample(t);
+        let terms_hat = self.motor.model.terms_inline(&q_hat);
+        // The prediction solves with S⁻¹ (`Model::acceleration_with`): an estimate where it
+        // does not exist trips now what the prediction would trip after the law. The law and
+        // the prediction then run knowing that it does.
+        if terms_hat.schur_inverse().is_none() {
+            self.trip(Fault::Singular);
+            return None;
+        }
         let out = match full {
             Some((q, qd)) => self.motor.step(t, q, qd, &target),
             None => self.motor.law_with(&terms_hat, t, &q_hat, &qd_hat, &target),
         };
         let out = self.check(out)?;
         // u = [τ, C_a V_a] (Eq. 18), written out: IEEE arithmetic cannot drop the `+ 0`s.
-        let f = self.patch.c_a() * self.v_a;
+        let f = self.c_a * self.v_a;
         let u = Vector4::new(out.tau.x, out.tau.y, f.x, f.y);
         let predicted = self
             .observer
@@ -394,6 +415,7 @@ impl<T: Real> Controller<T> {
         // ±∞ and out-of-range samples; the cause is sorted out on the (rare) fault path.
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
         if !(v_f.abs() < self.film_gate) {
+            crate::hint::cold();
             if self.armed && self.latch.fault().is_none() {
                 self.trip(if v_f.finite() {
                     Fault::OutOfRange

@@ -508,6 +508,33 @@ impl<T: Real> Drive<T> {
         Ok(plan.duration)
     }
 
+    /// Runs `trajectory` from its time `offset` [s] at `now`, as a move that ends at its
+    /// duration, then holds its end: a host's study of a trajectory it made itself (the
+    /// simulator's runs of the paper's moves, a segment of an experiment), which a board never
+    /// runs: **the move limits are not checked** ([`Self::start`] checks them). The motion checks,
+    /// the derating, the stops and the watchdog run as for any move. Armed, holding or moving (a
+    /// study's next segment replaces the move).
+    pub fn follow(
+        &mut self,
+        ctrl: &mut Controller<T>,
+        now: Ticks,
+        trajectory: JointTrajectory<T>,
+        offset: T,
+    ) -> Result<(), Refused> {
+        match self.mode(ctrl) {
+            Mode::Fault => return Err(Refused::Faulted),
+            Mode::Disarmed => return Err(Refused::NotArmed),
+            Mode::Stopping => return Err(Refused::Moving),
+            Mode::Armed | Mode::Moving => {}
+        }
+        ctrl.trajectory = trajectory;
+        self.restart(now, offset, trajectory.duration());
+        self.segment = 0;
+        self.segments = 0;
+        self.mode = Mode::Moving;
+        Ok(())
+    }
+
     /// Validates `request` from the pose `from` [rad] for the motor law `motor` (its model and
     /// torque limits): the [`Plan`] to [`Self::begin`], or why it is refused. (Not inlined: a
     /// firmware calls it from two places and has the flash for one copy.)

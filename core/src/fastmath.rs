@@ -39,33 +39,39 @@ fn round_small(y: f32) -> (f32, f32) {
     (shifted, shifted - ROUND_SHIFT)
 }
 
-/// `(sin x, cos x)` for `f32`, float-only for `|x| ≤ 10⁴`.
+/// `(sin x, cos x)` for `f32`, float-only for `|x| ≤ 10⁴`. Inlined: no call, and (the
+/// fold being a loop in place) none on its rare path either, so a caller keeps no values in
+/// callee-saved registers for it.
+#[inline(always)]
 pub fn sin_cos(x: f32) -> (f32, f32) {
-    // One comparison sends NaN, ±∞ and |x| > 10⁴ to the slow path.
-    #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
-    if !(x.abs() <= 1.0e4) {
-        return sin_cos_far(x);
-    }
-    sin_cos_reduced(x)
+    // One comparison sends NaN, ±∞ and |x| > 10⁴ to the fold.
+    let y = if x.abs() <= 1.0e4 { x } else { fold_turns(x) };
+    sin_cos_reduced(y)
 }
 
-/// [`sin_cos`] outside `|x| ≤ 10⁴`: far outside any joint range, folded by whole turns in
-/// `f32` first. The fold loses about `|x|·2⁻²⁴` rad of accuracy but stays finite and in range,
-/// and keeps the software-`f64` reduction of `libm::sincosf` (7 KiB of flash) out of the
-/// firmware.
-#[cold]
-#[inline(never)]
-fn sin_cos_far(x: f32) -> (f32, f32) {
-    if !x.is_finite() {
-        return (f32::NAN, f32::NAN);
-    }
-    // Each fold leaves at most π plus the rounding of `turns·2π` (about |y|·2⁻²³): a few folds
-    // reach the fast range.
+/// `x` less whole turns, for `|x| > 10⁴`: far outside any joint range. The fold loses about
+/// `|x|·2⁻²⁴` rad of accuracy but stays finite and in range, and keeps the software-`f64`
+/// reduction of `libm::sincosf` (7 KiB of flash) out of the firmware. NaN and ±∞ give NaN
+/// (`∞ − ∞`), which ends the loop.
+#[inline(always)]
+fn fold_turns(x: f32) -> f32 {
+    const TAU: f32 = core::f32::consts::TAU;
+    // Each fold leaves less than 2π plus the rounding of `turns·2π` (about |y|·2⁻²³): a few
+    // folds reach the fast range.
+    crate::hint::cold();
     let mut y = x;
     while y.abs() > 1.0e4 {
-        y -= libm::rintf(y / core::f32::consts::TAU) * core::f32::consts::TAU;
+        let n = y / TAU;
+        // Whole turns: `n` truncated through an integer below 2²³ (exact there), `n` itself
+        // above, where every `f32` is an integer.
+        let turns = if n.abs() < 8_388_608.0 {
+            n as i32 as f32
+        } else {
+            n
+        };
+        y -= turns * TAU;
     }
-    sin_cos_reduced(y)
+    y
 }
 
 /// The float-only evaluation for `|x| ≤ 10⁴`.
@@ -103,6 +109,7 @@ fn sin_cos_reduced(x: f32) -> (f32, f32) {
 pub fn exp(x: f32) -> f32 {
     // One comparison sends NaN and the underflow and overflow ranges to the slow path.
     if !(-87.0..=88.0).contains(&x) {
+        crate::hint::cold();
         return if x.is_nan() {
             x
         } else if x > 0.0 {

@@ -21,12 +21,20 @@
 //! No heap, no panics on the control path: errors are values ([`Fault`], [`ParamError`],
 //! [`TrajectoryError`]).
 #![no_std]
+// No panics on the control path: errors are values.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
 
 pub mod control;
 pub mod controller;
 pub mod drive;
 pub mod fastmath;
 pub mod fault;
+mod hint;
 pub mod indices;
 pub mod kinematics;
 pub mod limits;

@@ -52,6 +52,8 @@ pub struct Model<T> {
     a1_s2: T,
     /// `a1 v_j` [√kg·m²].
     a1_v: Vector2<T>,
+    /// `wᵀw = w1² + w2²` [kg·m²], the constant part of the Schur complement's `s22`.
+    w_sq: T,
     /// `K = diag(ω_j²)` [1/s²].
     k: Vector2<T>,
     /// `D = diag(2 ζ_j ω_j)` [1/s].
@@ -67,11 +69,13 @@ impl<T: Real> Model<T> {
             p.i_h1 + p.i_1 + p.m1 * p.a1 * p.a1 * T::c(0.25) + (p.m_h2 + p.m2) * p.a1 * p.a1;
         let j_const = p.i_h2 + p.i_2_extra + p.m2 * p.a2 * p.a2 / T::c(3.0);
         let w = p.modes.omega;
+        let m = p.modes.moment_integral;
         Self {
             a_const,
             j_const,
             a1_s2: p.a1 * p.m2 * p.a2 * half,
             a1_v: p.modes.mass_integral * p.a1,
+            w_sq: m.x * m.x + m.y * m.y,
             k: w.component_mul(&w),
             d: (p.modes.zeta * T::c(2.0)).component_mul(&w),
             params,
@@ -93,6 +97,15 @@ impl<T: Real> Model<T> {
     #[inline(always)]
     pub fn terms(&self, q: &Vector4<T>) -> Terms<T> {
         let (s2, c2) = q.y.lsin_cos();
+        self.terms_sc(s2, c2, q)
+    }
+
+    /// [`Self::terms`] with the `sin`/`cos` of θ2 inlined ([`Real::lsin_cos_inline`]): the
+    /// motor step's and Eq. 7's, where the call, its register moves and the registers it
+    /// clobbers cost more than its code; elsewhere the call saves flash.
+    #[inline(always)]
+    pub fn terms_inline(&self, q: &Vector4<T>) -> Terms<T> {
+        let (s2, c2) = q.y.lsin_cos_inline();
         self.terms_sc(s2, c2, q)
     }
 
@@ -122,7 +135,7 @@ impl<T: Real> Model<T> {
             s_inv: schur_inverse(
                 b11 - b13 * b13 - b14 * b14,
                 b12 - b13 * w.x - b14 * w.y,
-                b22 - w.x * w.x - w.y * w.y,
+                b22 - self.w_sq,
             ),
         }
     }

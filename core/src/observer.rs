@@ -29,8 +29,10 @@ use crate::{Vector2, Vector4};
 /// The observer's gain `L`: 8 states `(q, q̇)` by 3 measurements `(θ1, θ2, V_f)`.
 pub type Gain<T> = SMatrix<T, 8, 3>;
 
-/// One sample of the sensors.
+/// One sample of the sensors. Laid out as written (`repr(C)`: the bench's C comparison reads
+/// it).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Measurement<T> {
     /// Encoder angles `(θ1, θ2)` [rad].
     pub theta: Vector2<T>,

@@ -11,6 +11,12 @@ use nalgebra::RealField;
 pub trait Real: RealField + Copy {
     /// `(sin x, cos x)`.
     fn lsin_cos(self) -> (Self, Self);
+    /// [`Self::lsin_cos`] inlined into its caller (the hot path's one `sin`/`cos`,
+    /// [`crate::model::Model::terms_inline`]); elsewhere the call saves flash.
+    #[inline(always)]
+    fn lsin_cos_inline(self) -> (Self, Self) {
+        self.lsin_cos()
+    }
     /// `eˣ`.
     fn lexp(self) -> Self;
     /// `acos x`, NaN outside [-1, 1].
@@ -36,8 +42,14 @@ pub trait Real: RealField + Copy {
 }
 
 impl Real for f32 {
-    /// Float-only ([`crate::fastmath::sin_cos`]): no software `f64` on the Cortex-M4F.
+    /// Float-only ([`crate::fastmath::sin_cos`]): no software `f64` on the Cortex-M4F. One
+    /// copy, called ([`Self::lsin_cos_inline`] is the inlined one).
+    #[inline(never)]
     fn lsin_cos(self) -> (Self, Self) {
+        crate::fastmath::sin_cos(self)
+    }
+    #[inline(always)]
+    fn lsin_cos_inline(self) -> (Self, Self) {
         crate::fastmath::sin_cos(self)
     }
     /// Float-only ([`crate::fastmath::exp`]), like `lsin_cos`.
@@ -119,6 +131,10 @@ impl Real for f64 {
 /// `true` if every value is finite, with one comparison: any NaN or ±∞ makes the sum NaN or ±∞.
 /// The sum of finite values overflows only beyond `3.4e38` (in `f32`), far past any physical
 /// quantity of the arm, and that too reads as not finite: the check errs on the safe side.
+/// The sum starts from the first value, not from 0 (`0 + x` is one addition IEEE arithmetic
+/// cannot drop); no values are all finite.
 pub fn all_finite<T: Real, const N: usize>(xs: [T; N]) -> bool {
-    xs.into_iter().fold(T::zero(), |acc, x| acc + x).finite()
+    xs.into_iter()
+        .reduce(|acc, x| acc + x)
+        .is_none_or(|s| s.finite())
 }

@@ -70,6 +70,18 @@ impl<T: Real> SensorLimits<T> {
         previous: Option<&Vector2<T>>,
         period: T,
     ) -> Result<(), Fault> {
+        self.check_step(y, previous, self.speed_max * period)
+    }
+
+    /// [`Self::check`] with the largest encoder step of one period, `speed_max × period`
+    /// [rad], already computed (the controller computes it once).
+    #[inline(always)]
+    pub fn check_step(
+        &self,
+        y: &Measurement<T>,
+        previous: Option<&Vector2<T>>,
+        step: T,
+    ) -> Result<(), Fault> {
         // Written so that NaN fails every comparison: the range test rejects NaN, ±∞ and
         // out-of-range samples at once, and the cause is sorted out on the (rare) fault path.
         let inside = y.theta.x >= self.theta_min.x
@@ -78,6 +90,7 @@ impl<T: Real> SensorLimits<T> {
             && y.theta.y <= self.theta_max.y
             && y.v_f.abs() < self.v_f_max;
         if !inside {
+            crate::hint::cold();
             return Err(
                 if y.theta.x.finite() && y.theta.y.finite() && y.v_f.finite() {
                     Fault::OutOfRange
@@ -86,11 +99,11 @@ impl<T: Real> SensorLimits<T> {
                 },
             );
         }
-        if let Some(p) = previous {
-            let step = self.speed_max * period;
-            if (y.theta.x - p.x).abs() > step || (y.theta.y - p.y).abs() > step {
-                return Err(Fault::EncoderJump);
-            }
+        if let Some(p) = previous
+            && ((y.theta.x - p.x).abs() > step || (y.theta.y - p.y).abs() > step)
+        {
+            crate::hint::cold();
+            return Err(Fault::EncoderJump);
         }
         Ok(())
     }
@@ -192,6 +205,7 @@ impl Staleness {
             self.missed.saturating_add(1)
         };
         if self.missed > self.limit {
+            crate::hint::cold();
             Err(Fault::Stale)
         } else {
             Ok(())

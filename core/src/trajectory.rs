@@ -53,8 +53,10 @@ impl core::fmt::Display for TrajectoryError {
     }
 }
 
-/// One sample of the desired joint motion.
+/// One sample of the desired joint motion. Laid out as written (`repr(C)`: the bench's C
+/// comparison reads it).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct JointTarget<T> {
     /// `θ_d` [rad].
     pub q: Vector2<T>,
@@ -71,6 +73,17 @@ impl<T: Real> JointTarget<T> {
             q,
             qd: Vector2::zeros(),
             qdd: Vector2::zeros(),
+        }
+    }
+
+    /// The same sample, value by value (see [`JointTrajectory::sample`]).
+    #[inline(always)]
+    fn rebuilt(self) -> Self {
+        let v = |x: Vector2<T>| Vector2::new(x.x, x.y);
+        Self {
+            q: v(self.q),
+            qd: v(self.qd),
+            qdd: v(self.qdd),
         }
     }
 
@@ -363,12 +376,14 @@ pub struct Cubic<T> {
 }
 
 impl<T: Real> Cubic<T> {
-    /// Desired motion at `t` [s]: the curve on `[0, T]`; `start` at its speed `v0` before (and
-    /// for a NaN time), `end` at `v1` after, both without acceleration.
+    /// Desired motion at `t` [s]: the curve on `[0, T)`; `start` at its speed `v0` before (and
+    /// for a NaN time), `end` at `v1` from `T` on, both without acceleration. Right-continuous
+    /// at `t = 0` like [`Profile::sample`]: the sample the motor loop takes at the start (and
+    /// holds for a period) already carries the curve's acceleration.
     pub fn sample(&self, t: T) -> JointTarget<T> {
         let z = T::zero();
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
-        if !(t > z) {
+        if !(t >= z) {
             return JointTarget {
                 q: self.start,
                 qd: self.v0,
@@ -444,14 +459,27 @@ pub enum JointTrajectory<T> {
 }
 
 impl<T: Real> JointTrajectory<T> {
+    /// The time from which it holds its end pose [s] (0 for a hold).
+    pub fn duration(&self) -> T {
+        match self {
+            Self::Hold(_) => T::zero(),
+            Self::Trapezoid(tr) => tr.profile.duration(),
+            Self::Circle(c) => c.profile.duration(),
+            Self::Cubic(c) => c.duration,
+        }
+    }
+
     /// Desired joint motion at `t` [s] since the start.
     #[inline(always)]
     pub fn sample(&self, t: T) -> JointTarget<T> {
         match self {
             Self::Hold(q) => JointTarget::rest(*q),
             Self::Trapezoid(tr) => tr.sample(t),
-            Self::Circle(c) => c.sample(t),
-            Self::Cubic(c) => c.sample(t),
+            // Rebuilt from its values: the sample of a called function then reaches the caller
+            // in registers like the others, not through one stack slot that every arm writes
+            // and the motor law reads back.
+            Self::Circle(c) => c.sample(t).rebuilt(),
+            Self::Cubic(c) => c.sample(t).rebuilt(),
         }
     }
 }

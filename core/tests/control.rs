@@ -298,6 +298,64 @@ fn transducer_lever_arms_come_from_the_composite_section() {
     assert!((k_s - 0.216 * 2e9 * 28e-6 * m.film_lever_arm() / 0.35).abs() < 1e-12 * k_s);
 }
 
+/// The film's feedthrough and the bending path together are the free patch's laminate solution.
+/// Independently of the composite axis: with the axis at the film's bottom face, the laminate
+/// `[[A, B], [B, D]] (ε₀, κ) = (N^Λ, M^Λ)` (no load; `B ≠ 0` there) gives the strain at the
+/// film's mid-plane `ε₀ + κ z_f`. A patch clamped at one end bends by the same curvature (no
+/// moment from the free tip), so its film reads `g31 E_f t_f (ε₀ + κ z_f)`: the bending path's
+/// static `−k_s k_a l_a / EI` (curvature at the film's lever arm; `EI` about the composite axis)
+/// plus the feedthrough. The sign convention of the module (`k_a, k_s > 0`) flips the film's
+/// reading.
+#[test]
+fn the_feedthrough_and_the_bending_path_make_the_free_patchs_strain() {
+    for t_b in [0.8e-3, 2.5e-3, 5e-3] {
+        let m = PiezoMaterial::<f64> {
+            t_b,
+            ..Default::default()
+        };
+        let layers = [
+            (m.e_f, 0.0, m.t_f),
+            (m.e_b, m.t_f, m.t_f + m.t_b),
+            (m.e_c, m.t_f + m.t_b, m.t_f + m.t_b + m.t_c),
+        ];
+        let (mut a, mut b, mut d) = (0.0, 0.0, 0.0);
+        for (e, z0, z1) in layers {
+            a += e * m.b * (z1 - z0);
+            b += e * m.b * (z1 * z1 - z0 * z0) / 2.0;
+            d += e * m.b * (z1.powi(3) - z0.powi(3)) / 3.0;
+        }
+        // The ceramic's free strain per volt, |d31|/t_c, restrained by its own stiffness.
+        let (c0, c1) = (layers[2].1, layers[2].2);
+        let n_l = m.e_c * m.b * m.d31.abs();
+        let m_l = m.e_c * m.b * m.d31.abs() / m.t_c * (c1 * c1 - c0 * c0) / 2.0;
+        let det = a * d - b * b;
+        let (eps0, kappa) = ((d * n_l - b * m_l) / det, (a * m_l - b * n_l) / det);
+        let film = m.g31 * m.e_f * m.t_f * (eps0 + kappa * m.t_f / 2.0);
+        // EI about the composite axis, and the bending path's static gain per volt.
+        let ei = d - b * b / a;
+        let l_a = 0.35;
+        let bending = m.film_volts_per_slope(l_a) * m.moment_per_volt() * l_a / ei;
+        let f = m.film_feedthrough();
+        assert!(
+            (-film - (bending + f)).abs() < 1e-9 * bending,
+            "t_b {t_b}: {film} vs {bending} + {f}"
+        );
+        assert!(f < 0.0 && bending > 0.0);
+        println!(
+            "t_b = {:.1} mm: bending path's static gain {bending:.3e} V/V, feedthrough {f:.3e} V/V ({:.0} %)",
+            t_b * 1e3,
+            -100.0 * f / bending
+        );
+    }
+    // The 2.5 mm link (docs/results.md, docs/model.md).
+    let m = PiezoMaterial::<f64> {
+        t_b: 2.5e-3,
+        ..Default::default()
+    };
+    let f = m.film_feedthrough();
+    assert!((f + 1.086e-3).abs() < 1e-6, "{f}");
+}
+
 proptest! {
     /// The piezo law saturates at an asymmetric window: a patch rated −30 V … +150 V never sees
     /// more, and inside the window the law is the symmetric one's.

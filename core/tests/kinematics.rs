@@ -220,7 +220,7 @@ fn parameters_validate() {
 /// The motor loop samples the trajectory at `t = kT` and holds the sample for one period, so the
 /// desired acceleration it feeds forward integrates to `Σ_{i<k} q̈_d(iT) T`. That sum must be the
 /// analytic `q̇_d(kT)`: exactly (to round-off) on the trapezoid's ramp, where `q̈_d` is constant,
-/// and within the left-rectangle error `t T/2 · max|q⃛_d|` on the circle. A start that is not
+/// and within the left-rectangle error `t T/2 · max|q⃛_d|` on the circle and a waypoint segment. A start that is not
 /// right-continuous (`q̈_d(0) = 0`) leaves the whole first period's `q̈_d(0) T` out: 2.09e-3 rad/s
 /// on the trapezoid.
 #[test]
@@ -229,7 +229,19 @@ fn held_acceleration_integrates_to_the_desired_velocity() {
     const PERIODS: usize = 400; // inside the first ramp of both (0.5 s)
     let circle = JointTrajectory::Circle(Circle::<f64>::paper(0.3, 0.7).unwrap());
     let trapezoid = JointTrajectory::Trapezoid(Trapezoid::<f64>::paper());
-    for (name, traj) in [("trapezoid", trapezoid), ("circle", circle)] {
+    // A waypoint segment from rest (`crate::drive`'s first segment of a path).
+    let cubic = JointTrajectory::Cubic(Cubic {
+        start: Vector2::new(0.2, -0.1),
+        end: Vector2::new(1.2, -0.6),
+        v0: Vector2::zeros(),
+        v1: Vector2::new(0.3, 0.0),
+        duration: 0.5,
+    });
+    for (name, traj) in [
+        ("trapezoid", trapezoid),
+        ("circle", circle),
+        ("cubic", cubic),
+    ] {
         // Largest jerk over the window, by central differences of q̈_d on a grid of T/10.
         let jerk = (1..10 * PERIODS)
             .map(|i| {

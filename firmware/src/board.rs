@@ -1,14 +1,12 @@
-//! The board: everything the control tasks read and write, behind one small trait, so that the
-//! tasks never touch a register. Digital lines go through `embedded-hal` 1.0 pin traits.
-//!
-//! Units: angles in rad, film voltage in V (at the sensor, before any gain), torques in N·m,
-//! piezo command in V (at the amplifier's output).
-
-use flexarm_core::Vector2;
+//! The boards: the hardware's registers (`hw`) and the QEMU board's simulated arm (`sim`), each
+//! behind `flexarm_machine::Board` (the arm's I/O, the trait the control tasks call), and how
+//! the arm is wired to them ([`wiring`]). Digital lines go through `embedded-hal` 1.0 pin traits.
 
 #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
+#[allow(unsafe_code)]
 pub mod clocks;
 #[cfg(feature = "hw")]
+#[allow(unsafe_code)]
 pub mod hw;
 #[cfg(feature = "qemu")]
 pub mod sim;
@@ -30,30 +28,4 @@ pub mod wiring {
     pub const FILM_INVERTED: bool = false;
 }
 
-/// The I/O of the arm.
-pub trait Board {
-    /// Joint angles from the encoders [rad].
-    fn encoders(&mut self) -> Vector2<f32>;
-    /// Film voltage [V], sampled for the piezo loop.
-    fn film_voltage(&mut self) -> f32;
-    /// Film voltage [V] for the motor loop: the hardware board's latest piezo-loop sample (one
-    /// converter, one sampling instant); the simulated board reads its plant now.
-    fn latest_film_voltage(&mut self) -> f32 {
-        self.film_voltage()
-    }
-    /// Motor torque commands [N·m].
-    fn set_torques(&mut self, tau: Vector2<f32>);
-    /// Piezo amplifier command [V].
-    fn set_piezo(&mut self, v_a: f32);
-    /// Amplifier enable line (all three amplifiers).
-    fn set_enable(&mut self, on: bool);
-    /// `true` while an amplifier reports a fault.
-    fn amplifier_fault(&mut self) -> bool;
-    /// Called once per piezo period after the outputs are written: the simulated board
-    /// advances its plant here; a real board does nothing.
-    fn tick(&mut self) {}
-    /// Called once per motor period with the time `t` [s] since the boot move's start: the
-    /// QEMU board's verdict runs measure the plant against the move here (`crate::verdict`);
-    /// a real board does nothing.
-    fn motor_period(&mut self, _t: f32) {}
-}
+pub use flexarm_machine::Board;

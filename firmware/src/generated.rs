@@ -1,4 +1,4 @@
-//! The arm model, piezo patch and observer gains the firmware runs.
+//! The arm model, piezo patch and observer gains the firmware runs, in each board's configuration.
 //!
 //! Generated: do not edit. Source: `firmware/piezo.toml`. Regenerate with
 //! `cargo sim firmware-params firmware/piezo.toml --out firmware/src/generated.rs`
@@ -9,8 +9,14 @@
 //! `NoiseModel::default()`) of [`ARM`] at rest at `THETA_NOMINAL`, for this patch's
 //! film map `c_f = k_s Δφ' = [1.2745437e2, -6.4355585e2]` V/(√kg·m).
 
-use flexarm_core::Vector2;
-use flexarm_core::params::{ArmParams, ModalData};
+use flexarm_core::control::motor::MotorLaw;
+use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
+use flexarm_core::drive::MoveLimits;
+use flexarm_core::motion::{MotionLimits, Thermal};
+use flexarm_core::params::{ArmParams, Gains, Limits, ModalData};
+use flexarm_core::{Vector2, Vector4};
+use flexarm_link::msg::Board;
+use flexarm_machine::BoardConfig;
 
 /// The controller's model of the arm (SI; `flexarm_core::params::ArmParams`): the
 /// source's `[arm]` (the paper's values where it has none); its modes:
@@ -34,19 +40,20 @@ pub const ARM: ArmParams<f32> = ArmParams {
     },
 };
 
-/// Patch start from joint 2 `x_a` [m].
-pub const X_A: f32 = 9e-2;
-/// Patch length `l_a` [m].
-pub const L_A: f32 = 3.5e-1;
-/// Slope differences `Δφ'_j` across the patch, the modes of [`ARM`] [1/(m·√kg)].
-pub const SLOPE_DIFF: [f32; 2] = [4.550401e0, -2.297636e1];
+/// The piezo patch on link 2 (`flexarm_core::control::piezo::PiezoPatch`): its start
+/// from joint 2 `x_a` [m], its length `l_a` [m], the slope differences `Δφ'_j` across it
+/// on the modes of [`ARM`] [1/(m·√kg)], the actuator's moment per volt `k_a` [N·m/V] and
+/// the film's volts per radian of slope difference `k_s` [V/rad].
+pub const PATCH: PiezoPatch<f32> = PiezoPatch {
+    x_a: 9e-2,
+    l_a: 3.5e-1,
+    slope_diff: Vector2::new(4.550401e0, -2.297636e1),
+    k_a: 1.9369947e-4,
+    k_s: 2.8009478e1,
+};
 /// Slope differences across the patch on the QEMU board's simulated arm (the paper's
 /// arm, uniform link 2, whatever [`ARM`] is) [1/(m·√kg)].
 pub const QEMU_SLOPE_DIFF: [f32; 2] = [4.550401e0, -2.297636e1];
-/// Actuator moment per volt `k_a` [N·m/V].
-pub const K_A: f32 = 1.9369947e-4;
-/// Film volts per radian of slope difference `k_s` [V/rad].
-pub const K_S: f32 = 2.8009478e1;
 /// Rate-feedback gain `k_c` of `V_a = −k_c V̇_f` [s] (the fragment's `piezo.k_c`).
 pub const K_C: f32 = 3e1;
 
@@ -75,3 +82,135 @@ pub const GAIN_100HZ: [[f32; 3]; 8] = [
     [-7.181042e-1, -1.8183345e0, 4.2715035e-2],
     [-2.8407267e-1, -6.703157e-1, -1.2712683e-1],
 ];
+
+/// Everything the hardware board boots with (`flexarm_machine::BoardConfig::for_board` on this
+/// model): its hash is [`HARDWARE_HASH`].
+pub const HARDWARE: BoardConfig = BoardConfig {
+    board: Board::Hardware,
+    arm: ARM,
+    patch: PATCH,
+    law: MotorLaw::Tracking,
+    gains: Gains {
+        lambda: Vector4::new(1e0, 1e0, 1e0, 1e0),
+        kp: Vector4::new(9e1, 1.4e1, 0e0, 0e0),
+        d_delta: Vector2::new(2e1, 2e1),
+        epsilon: Vector2::new(1e-1, 1e-1),
+        phi: Vector2::new(1e-2, 1e-2),
+        epsilon_floor: 1e-4,
+        mu: 1e-1,
+    },
+    piezo: PiezoGains {
+        k_c: K_C,
+        cutoff_hz: 1e2,
+    },
+    limits: Limits {
+        tau_max: Vector2::new(1e1, 1e1),
+        v_a_max: 1.75e2,
+        v_a_min: -1.75e2,
+    },
+    motion: MotionLimits {
+        following: Vector2::new(5e-2, 5e-2),
+        speed: Vector2::new(4e0, 4e0),
+        runaway_speed: 2e-1,
+        runaway_torque: Vector2::new(1e0, 1e0),
+        runaway_error: 1e-2,
+        runaway_periods: 10,
+        frozen_torque: Vector2::new(3e0, 3e0),
+        frozen_periods: 20,
+        frozen_step: 1e-4,
+        range_min: Vector2::new(-3.1415927e0, -2.8e0),
+        range_max: Vector2::new(3.1415927e0, 2.8e0),
+        stop_accel: Vector2::new(1e1, 1e1),
+        range_margin: 2e-2,
+        thermal: Thermal {
+            continuous: Vector2::new(4e0, 4e0),
+            time_constant: 2e1,
+            derate: 6e-1,
+            floor: 9e-1,
+            trip: 9.5e-1,
+        },
+    },
+    moves: MoveLimits {
+        speed_max: Vector2::new(3e0, 3e0),
+        accel_max: Vector2::new(1e1, 1e1),
+        theta_max: Vector2::new(3e0, 2.7e0),
+        theta_min: Vector2::new(-3e0, -2.7e0),
+        torque_share: 7.5e-1,
+    },
+    observer_gain: GAIN_1KHZ,
+    piezo_hz: 10000,
+    motor_divider: 10,
+    print_every: 100,
+    record_every: 2,
+    link_timeout_s: 1,
+    amplifier_settle: 10,
+    amplifier_debounce: 3,
+};
+/// `BoardConfig::hash` of [`HARDWARE`], the handshake's `params_hash`.
+pub const HARDWARE_HASH: u32 = 0x7506f2e8;
+
+/// Everything the QEMU board boots with (`flexarm_machine::BoardConfig::for_board` on this
+/// model): its hash is [`QEMU_HASH`].
+pub const QEMU: BoardConfig = BoardConfig {
+    board: Board::Qemu,
+    arm: ARM,
+    patch: PATCH,
+    law: MotorLaw::Tracking,
+    gains: Gains {
+        lambda: Vector4::new(1e0, 1e0, 1e0, 1e0),
+        kp: Vector4::new(4.0816326e1, 6.349206e0, 0e0, 0e0),
+        d_delta: Vector2::new(2e1, 2e1),
+        epsilon: Vector2::new(1e-1, 1e-1),
+        phi: Vector2::new(1e-2, 1e-2),
+        epsilon_floor: 1e-4,
+        mu: 1e-1,
+    },
+    piezo: PiezoGains {
+        k_c: K_C,
+        cutoff_hz: 1e2,
+    },
+    limits: Limits {
+        tau_max: Vector2::new(1e1, 1e1),
+        v_a_max: 2e2,
+        v_a_min: -2e2,
+    },
+    motion: MotionLimits {
+        following: Vector2::new(5e-2, 5e-2),
+        speed: Vector2::new(4e0, 4e0),
+        runaway_speed: 2e-1,
+        runaway_torque: Vector2::new(1e0, 1e0),
+        runaway_error: 2.205e-2,
+        runaway_periods: 2,
+        frozen_torque: Vector2::new(3e0, 3e0),
+        frozen_periods: 3,
+        frozen_step: 1e-3,
+        range_min: Vector2::new(-3.1415927e0, -2.8e0),
+        range_max: Vector2::new(3.1415927e0, 2.8e0),
+        stop_accel: Vector2::new(1e1, 1e1),
+        range_margin: 2e-2,
+        thermal: Thermal {
+            continuous: Vector2::new(4e0, 4e0),
+            time_constant: 2e1,
+            derate: 6e-1,
+            floor: 9e-1,
+            trip: 9.5e-1,
+        },
+    },
+    moves: MoveLimits {
+        speed_max: Vector2::new(3e0, 3e0),
+        accel_max: Vector2::new(1e1, 1e1),
+        theta_max: Vector2::new(3e0, 2.7e0),
+        theta_min: Vector2::new(-3e0, -2.7e0),
+        torque_share: 7.5e-1,
+    },
+    observer_gain: GAIN_100HZ,
+    piezo_hz: 1000,
+    motor_divider: 10,
+    print_every: 10,
+    record_every: 1,
+    link_timeout_s: 5,
+    amplifier_settle: 1,
+    amplifier_debounce: 3,
+};
+/// `BoardConfig::hash` of [`QEMU`], the handshake's `params_hash`.
+pub const QEMU_HASH: u32 = 0x3177e9f8;

@@ -10,18 +10,25 @@
 //! | `link_rx` | USART1 receive | 1 | moves the command link's bytes into a queue |
 //! | `idle` | — | 0 | telemetry to defmt; the command link: decodes, answers, streams (`link`) |
 //!
-//! The control math is `flexarm-core`'s [`Controller`]: checks, observer, laws and the safety
-//! latch. The tasks only move numbers between the board and the controller.
+//! What the tasks do each period is `flexarm-machine`'s: the phases of a piezo and a motor
+//! period (`flexarm_machine::period`) over `flexarm-core`'s controller and drive, the telemetry
+//! record, the link session (`flexarm_machine::session`) and the board's configuration
+//! (`config::board`). Each task locks what its phase needs and calls it; what stays here is the
+//! hardware: registers, clocks, the USART, the emergency paths, the stack and fault injection.
 #![no_std]
 #![no_main]
 // The QEMU link-session build has no boot move and no end-of-run verdict: the verdict's code
 // (`verdict`, the stack report) is compiled but unused there.
 #![cfg_attr(feature = "link-session", allow(dead_code))]
 
+// The register code: the only `unsafe` of the workspace (its lints deny it everywhere else).
 mod board;
+#[allow(unsafe_code)]
 mod clock;
 mod config;
+#[allow(unsafe_code)]
 mod emergency;
+#[allow(unsafe_code)]
 mod stack;
 /// The generated parameters (`cargo sim firmware-params`): `src/generated.rs`, from
 /// `firmware/piezo.toml`, or the file `FLEXARM_PARAMS` names at build time (build.rs copies it
@@ -30,6 +37,7 @@ mod stack;
 mod generated {
     include!(concat!(env!("OUT_DIR"), "/generated.rs"));
 }
+#[allow(unsafe_code)]
 mod link;
 mod stats;
 mod telemetry;
@@ -46,26 +54,21 @@ compile_error!(
     "features `qemu` and `hw` exclude each other: build `qemu` with --no-default-features"
 );
 
-use flexarm_core::controller::Controller;
-
 #[rtic::app(device = stm32f4::stm32f405, peripherals = true)]
 mod app {
     use core::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
-    use flexarm_core::control::motor::MotorLaw;
-    use flexarm_core::drive::{Drive, MoveLimits, MoveRequest};
-    use flexarm_core::observer::Measurement;
-    use flexarm_core::observer_gains::gain;
-    use flexarm_core::supervisor::AmplifierMonitor;
-    use flexarm_core::time::{MoveClock, Ticks};
+    use flexarm_core::drive::{Drive, MoveRequest};
+    use flexarm_core::time::MoveClock;
     use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
     use flexarm_core::{Fault, Vector2};
+    use flexarm_machine::period::{self, Control, FaultRecorder, MotorLoop};
+    use flexarm_machine::session::{self, Identity, Session, Snapshot};
     use heapless::spsc::{Consumer, Producer};
     #[cfg(feature = "qemu")]
     use rtic::Mutex;
     use stm32f4::stm32f405::{TIM2, TIM3, TIM4};
 
-    use super::Controller;
     use crate::board::Board;
     use crate::config::{self, MOTOR_HZ, PIEZO_HZ, SUPERVISOR_HZ, TIMER_CLOCK_HZ};
     use crate::telemetry::{self, Record};
@@ -87,12 +90,9 @@ mod app {
     /// Telemetry records the motor loop could not queue.
     static TELEMETRY_DROPS: AtomicU32 = AtomicU32::new(0);
 
-    /// The fault recorder's type (`config::RECORDER_LEN` samples).
-    pub type FaultRecorder = flexarm_core::recorder::Recorder<{ config::RECORDER_LEN }>;
-
     #[shared]
     struct Shared {
-        ctrl: Controller<f32>,
+        control: Control,
         drive: Drive<f32>,
         recorder: &'static mut FaultRecorder,
         board: BoardImpl,
@@ -109,19 +109,14 @@ mod app {
         rx_consumer: Consumer<'static, u8>,
         rx: crate::link::Receiver,
         serial: crate::link::Serial,
-        session: crate::link::Session,
-        snapshot: crate::link::Snapshot,
+        session: Session,
+        snapshot: Snapshot,
         piezo_ticks: u32,
-        now: Ticks,
+        motor: MotorLoop,
         move_clock: MoveClock,
-        telemetry_countdown: u32,
-        stream_countdown: u32,
         last_heartbeat: u32,
         supervisor_ticks: u32,
         reported_fault: bool,
-        fault_sent: bool,
-        amplifier: AmplifierMonitor,
-        enabled: bool,
         last_piezo_beat: u32,
         #[cfg(feature = "hw")]
         iwdg: stm32f4::stm32f405::IWDG,
@@ -184,24 +179,8 @@ mod app {
             cp.DWT.enable_cycle_counter();
         }
 
-        let piezo_period = 1.0 / PIEZO_HZ as f32;
-        let motor_period = 1.0 / MOTOR_HZ as f32;
-        let mut ctrl = Controller::with_model(
-            config::ARM,
-            MotorLaw::Tracking,
-            JointTrajectory::Trapezoid(Trapezoid::paper()),
-            piezo_period,
-            motor_period,
-            gain(config::OBSERVER_GAIN),
-            config::patch(),
-            config::piezo_gains(),
-            config::limits(),
-        );
-        // The paper's gains, slowed for a slow motor loop (the QEMU board's 100 Hz). Only `K_p`
-        // differs from the gains the controller starts with; copying the whole struct costs
-        // 148 B of flash the QEMU board does not have.
-        let g = config::motor_gains().kp;
-        (ctrl.motor.gains.kp.x, ctrl.motor.gains.kp.y) = (g.x, g.y);
+        let cfg = config::CONFIG;
+        let mut ctrl = cfg.controller(JointTrajectory::Trapezoid(Trapezoid::paper()));
         // The first cause is kept: a clock failure explains a watchdog reset, not the reverse.
         #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
         {
@@ -217,19 +196,14 @@ mod app {
         }
 
         #[cfg(feature = "qemu")]
-        let board = {
-            use flexarm_core::simarm::{SensorModel, SimArm};
-            // The simulated arm plays the physical arm: the paper's, with the firmware's patch
-            // on it, whatever model the controller runs (the paper's by default, or one
-            // identified on this arm, docs/identification.md).
-            let sim = SimArm::new(
-                flexarm_core::model::Model::new(flexarm_core::params::ArmParams::default()),
-                config::qemu_patch(),
-                flexarm_core::Vector4::zeros(),
-                SensorModel::default(),
-            );
-            BoardImpl::new(sim, piezo_period)
-        };
+        // The simulated arm plays the physical arm: the paper's, with the firmware's patch on
+        // it, whatever model the controller runs (the paper's by default, or one identified on
+        // this arm, docs/identification.md).
+        let board = BoardImpl::new(flexarm_machine::simulated::SimulatedArm::paper(
+            config::qemu_patch(),
+            flexarm_core::Vector4::zeros(),
+            cfg.piezo_period(),
+        ));
         #[cfg(feature = "hw")]
         let board = BoardImpl::new(
             dp.GPIOA, dp.GPIOB, dp.GPIOC, dp.TIM1, dp.TIM8, dp.TIM12, dp.ADC1, dp.DAC, &dp.RCC,
@@ -251,6 +225,10 @@ mod app {
         // TIM2's update event is also the film ADC's trigger (CR2 MMS = 0b010: TRGO = update).
         #[cfg(feature = "hw")]
         dp.TIM2.cr2().write(|w| w.mms().update());
+        // The QEMU board's motor loop runs every tenth piezo period, started by the piezo loop
+        // (`piezo_loop`): QEMU's timers drift against each other (its TIM2 comes 3 % late), and
+        // on one clock the plant, both loops and the host's rig keep the same time.
+        #[cfg(not(feature = "qemu"))]
         periodic!(
             dp.TIM3,
             TIMER_CLOCK_HZ / MOTOR_HZ,
@@ -265,14 +243,7 @@ mod app {
         // Disarmed until a host arms it; the QEMU verdict runs start the paper's move at boot.
         // After the timers start: code before them shifts the QEMU timers' phase, and with it
         // the uptime runs' equality (scripts/qemu-uptime), by its tick-dependent length.
-        let mut drive = Drive::new(
-            &mut ctrl,
-            MOTOR_HZ,
-            config::START_TICK,
-            MoveLimits::default(),
-        );
-        drive.link_timeout = config::LINK_TIMEOUT_S * MOTOR_HZ;
-        drive.motion = config::motion();
+        let mut drive = cfg.drive(&mut ctrl, config::START_TICK);
         if config::BOOT_MOVE && ctrl.fault().is_none() {
             let half_pi = core::f32::consts::FRAC_PI_2;
             let boot = MoveRequest::Trapezoid {
@@ -290,18 +261,20 @@ mod app {
         let (producer, consumer) = cx.local.queue.split();
         let (rx_producer, rx_consumer) = cx.local.rx_queue.split();
         let serial = crate::link::Serial::new(dp.USART1, &dp.RCC);
+        let params_hash = config::CONFIG_HASH;
         defmt::info!(
             "flexarm firmware: piezo loop {=u32} Hz, motor loop {=u32} Hz, supervisor {=u32} Hz; the arm model's modes {=f32} and {=f32} Hz, parameters {=u32:08x}",
             PIEZO_HZ,
             MOTOR_HZ,
             SUPERVISOR_HZ,
-            config::ARM.modes.omega.x / core::f32::consts::TAU,
-            config::ARM.modes.omega.y / core::f32::consts::TAU,
-            crate::link::params_hash()
+            cfg.arm.modes.omega.x / core::f32::consts::TAU,
+            cfg.arm.modes.omega.y / core::f32::consts::TAU,
+            params_hash
         );
+        let snapshot = session::snapshot(&ctrl, &drive);
         (
             Shared {
-                ctrl,
+                control: Control::new(ctrl),
                 drive,
                 recorder: cx.local.recorder,
                 board,
@@ -316,28 +289,25 @@ mod app {
                 rx_consumer,
                 rx: crate::link::Receiver,
                 serial,
-                snapshot: (drive, ctrl.motor, Vector2::zeros()),
-                session: crate::link::Session::new(flexarm_core::tuning::Tuning {
-                    piezo: config::piezo_gains(),
-                    piezo_period: 1.0 / PIEZO_HZ as f32,
-                    tau_ceiling: config::limits().tau_max,
-                    v_a_ceiling: config::limits().v_a_max,
-                }),
+                snapshot,
+                session: Session::new(
+                    cfg.tuning(),
+                    Identity {
+                        board: cfg.board,
+                        build: concat!("flexarm-firmware ", env!("CARGO_PKG_VERSION")),
+                        params_hash,
+                        motor_hz: MOTOR_HZ,
+                        piezo_hz: PIEZO_HZ,
+                        test_commands: cfg!(feature = "link-session"),
+                    },
+                ),
                 piezo_ticks: 0,
-                now: config::START_TICK,
+                motor: MotorLoop::new(&cfg, config::START_TICK),
                 // The boot move starts with the first motor period.
                 move_clock: MoveClock::new(config::START_TICK, MOTOR_HZ),
-                telemetry_countdown: 0,
-                stream_countdown: 0,
                 last_heartbeat: 0,
                 supervisor_ticks: 0,
                 reported_fault: false,
-                fault_sent: false,
-                amplifier: AmplifierMonitor::new(
-                    config::AMPLIFIER_SETTLE,
-                    config::AMPLIFIER_DEBOUNCE,
-                ),
-                enabled: false,
                 last_piezo_beat: 0,
                 #[cfg(feature = "hw")]
                 iwdg,
@@ -345,9 +315,16 @@ mod app {
         )
     }
 
+    /// The loops' loads: the mean execution time of the last supervisor window over the period
+    /// [fraction].
+    fn loads() -> [f32; 2] {
+        let load = |s: &stats::TaskStats, hz: u32| s.mean() as f32 / (clock::HZ / hz) as f32;
+        [load(&stats::PIEZO, PIEZO_HZ), load(&stats::MOTOR, MOTOR_HZ)]
+    }
+
     /// Telemetry and the command link: prints queued records and streams the subscribed ones;
     /// answers the link's requests; at the end of a QEMU run, checks the bounds and exits.
-    #[idle(local = [consumer, rx_consumer, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0, stops_seen: u32 = 0, snapshot], shared = [ctrl, drive, recorder, board])]
+    #[idle(local = [consumer, rx_consumer, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0, stops_seen: u32 = 0, snapshot], shared = [control, drive, recorder, board])]
     fn idle(mut cx: idle::Context) -> ! {
         use crate::link;
         crate::stack::paint();
@@ -359,7 +336,7 @@ mod app {
                 if let Record::Sample { tick, .. } = r {
                     *cx.local.last_tick = tick;
                 }
-                if let Some(t) = cx.local.session.telemetry(&r)
+                if let Some(t) = cx.local.session.telemetry(&r, loads())
                     && !link::send(
                         cx.local.serial,
                         &flexarm_link::msg::DeviceMsgRef::Telemetry(&t),
@@ -387,10 +364,13 @@ mod app {
                 let Some(byte) = cx.local.rx_consumer.dequeue() else {
                     break;
                 };
-                let Some(request) = cx.local.session.receive(byte) else {
-                    continue;
-                };
-                serve(&mut cx, request);
+                match cx.local.session.receive(byte) {
+                    None => {}
+                    Some(Ok(request)) => serve(&mut cx, request),
+                    Some(Err(e)) => {
+                        defmt::warn!("link: frame dropped: {=str}", link::frame_error(e));
+                    }
+                }
             }
             #[cfg(all(feature = "qemu", not(feature = "link-session")))]
             if cx.shared.board.lock(|b| b.run.finished) {
@@ -408,16 +388,15 @@ mod app {
     fn serve(cx: &mut idle::Context, request: flexarm_link::Request) {
         use crate::link;
         use rtic::mutex::prelude::*;
-        let (y, amplifier_fault) = cx.shared.board.lock(|b| {
-            let y = Measurement {
-                theta: b.encoders(),
-                v_f: b.latest_film_voltage(),
-            };
-            (y, b.amplifier_fault())
-        });
-        let io = link::Io {
-            y,
-            amplifier_fault,
+        let sensed = cx.shared.board.lock(period::sense);
+        let load = |s: &stats::TaskStats| flexarm_link::msg::Load {
+            mean_cycles: s.mean(),
+            worst_cycles: s.worst(),
+            misses: s.misses(),
+        };
+        let io = session::Io {
+            y: sensed.y,
+            amplifier_fault: sensed.amplifier_fault,
             ticks: *cx.local.last_tick,
             dropped: TELEMETRY_DROPS.load(Relaxed),
             rx_bytes: RX_BYTES.load(Relaxed),
@@ -427,6 +406,7 @@ mod app {
                 flexarm_link::Command::Status => crate::stack::used(),
                 _ => 0,
             },
+            loads: [load(&stats::PIEZO), load(&stats::MOTOR)],
         };
         #[cfg(feature = "link-session")]
         if let flexarm_link::Command::TestAmplifierFault(on) = request.command {
@@ -434,14 +414,14 @@ mod app {
         }
         let session = &mut cx.local.session;
         let reply = match request.command {
-            flexarm_link::Command::Move(m) => link::start_move(
+            flexarm_link::Command::Move(m) => session::start_move(
                 m,
-                &mut cx.shared.ctrl,
+                &mut cx.shared.control,
                 &mut cx.shared.drive,
                 cx.local.snapshot,
             ),
             command => (
-                &mut cx.shared.ctrl,
+                &mut cx.shared.control,
                 &mut cx.shared.drive,
                 &mut cx.shared.recorder,
             )
@@ -459,16 +439,16 @@ mod app {
     #[cfg(feature = "qemu")]
     fn finish(cx: &mut idle::Context) {
         use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
-        let fault = cx.shared.ctrl.lock(|c| c.fault());
+        let fault = cx.shared.control.lock(|c| c.ctrl.fault());
         let ok = cx
             .shared
             .board
-            .lock(|b| crate::verdict::judge(&b.run, fault, b.arm.enabled()));
+            .lock(|b| crate::verdict::judge(&b.run, fault, b.sim.arm.enabled()));
         exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
     }
 
     /// Piezo loop: film voltage in, actuator voltage out (Eq. 17).
-    #[task(binds = TIM2, priority = 3, local = [tim2, piezo_ticks], shared = [ctrl, board])]
+    #[task(binds = TIM2, priority = 3, local = [tim2, piezo_ticks], shared = [control, board])]
     fn piezo_loop(mut cx: piezo_loop::Context) {
         let start = clock::now();
         cx.local.tim2.sr().write(|w| w.uif().clear_bit());
@@ -480,130 +460,65 @@ mod app {
             defmt::warn!("injecting a NaN film sample at t = 1 s");
             v_f = f32::NAN;
         }
-        let v_a = cx.shared.ctrl.lock(|c| {
-            let v_a = c.piezo_step(v_f);
-            match f32::from_bits(crate::link::PIEZO_BIAS.load(Relaxed)) {
-                0.0 => v_a,
-                bias => c.bias_piezo(bias),
-            }
-        });
-        cx.shared.board.lock(|b| {
-            b.set_piezo(v_a);
-            b.tick();
-        });
+        let v_a = cx.shared.control.lock(|c| period::piezo_tick(c, v_f));
+        cx.shared.board.lock(|b| period::piezo_out(b, v_a));
         PIEZO_HEARTBEAT.fetch_add(1, Relaxed);
+        // The QEMU board's motor period: every tenth piezo period (at init's comment).
+        #[cfg(feature = "qemu")]
+        if cx
+            .local
+            .piezo_ticks
+            .is_multiple_of(config::CONFIG.motor_divider)
+        {
+            rtic::pend(stm32f4::stm32f405::Interrupt::TIM3);
+        }
         let missed = cx.local.tim2.sr().read().uif().bit_is_set();
         stats::PIEZO.record(clock::now().wrapping_sub(start), missed);
         if missed {
-            cx.shared.ctrl.lock(|c| c.trip(Fault::Overrun));
+            cx.shared.control.lock(|c| c.ctrl.trip(Fault::Overrun));
             cx.shared.board.lock(safe_outputs);
         }
     }
 
-    /// Motor loop: encoders and film in, observer, Eq. 7, torques out.
-    #[task(binds = TIM3, priority = 2, local = [tim3, producer, now, move_clock, telemetry_countdown, stream_countdown, fault_sent, amplifier, enabled], shared = [ctrl, drive, recorder, board])]
+    /// Motor loop: encoders and film in, the drive's step (observer, Eq. 7, motion checks),
+    /// torques out, the fault recorder, telemetry.
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, move_clock, motor], shared = [control, drive, recorder, board])]
     fn motor_loop(mut cx: motor_loop::Context) {
         let start = clock::now();
         cx.local.tim3.sr().write(|w| w.uif().clear_bit());
-        // The time base: this period's tick; the move's own time from the integer difference.
-        let tick = *cx.local.now;
-        *cx.local.now = tick.next();
-        let t = cx.local.move_clock.local_time(tick);
-
-        let (theta, v_f, amp_fault) = cx
-            .shared
-            .board
-            .lock(|b| (b.encoders(), b.latest_film_voltage(), b.amplifier_fault()));
-        // A telemetry sample this period, for defmt and for the link's stream?
-        let print = *cx.local.telemetry_countdown == 0;
-        *cx.local.telemetry_countdown = match *cx.local.telemetry_countdown {
-            0 => config::TELEMETRY_EVERY - 1,
-            n => n - 1,
-        };
-        let every = crate::link::STREAM_EVERY.load(Relaxed);
-        let stream = every != 0 && *cx.local.stream_countdown == 0;
-        *cx.local.stream_countdown = match *cx.local.stream_countdown {
-            0 => every.saturating_sub(1),
-            n => n - 1,
-        };
-        // The fault line counts only while the amplifiers are enabled (debounced, after settling).
-        let amp = cx.local.amplifier.update(*cx.local.enabled, amp_fault);
-        let (report, fault, q) = (&mut cx.shared.ctrl, &mut cx.shared.drive).lock(|c, d| {
-            if let Err(f) = amp {
-                c.trip(f);
-            }
-            let report = d.step(c, tick, Some(&Measurement { theta, v_f }));
-            // The piezo bias lives while the drive holds, not a period longer.
-            if d.mode(c) != flexarm_core::drive::Mode::Armed {
-                crate::link::PIEZO_BIAS.store(0, Relaxed);
-            }
-            (report, c.fault(), c.step_estimate())
-        });
-        let cmd = report.command;
-        let error = report.law.map_or([0.0; 2], |l| [l.error.x, l.error.y]);
+        let sensed = cx.shared.board.lock(period::sense);
+        let motor = cx.local.motor;
+        let p = (&mut cx.shared.control, &mut cx.shared.drive)
+            .lock(|c, d| period::motor_step(motor, c, d, &sensed));
+        // The time since boot (the boot move's time), from the integer tick difference.
+        let t = cx.local.move_clock.local_time(p.tick);
         cx.shared.board.lock(|b| {
-            b.set_torques(cmd.tau);
-            b.set_enable(cmd.enable);
+            period::actuate(b, &p.command);
             #[cfg(not(feature = "link-session"))]
             b.motor_period(t);
         });
-        *cx.local.enabled = cmd.enable;
         MOTOR_HEARTBEAT.fetch_add(1, Relaxed);
-
-        // The fault recorder: every `RECORD_EVERY`-th period, and the period a fault latched.
-        if tick.0.is_multiple_of(config::RECORD_EVERY) || fault.is_some() {
-            let s = flexarm_core::recorder::Sample {
-                tick: tick.0,
-                theta: [theta.x, theta.y],
-                error,
-                delta: [q.z, q.w],
-                tau: [cmd.tau.x, cmd.tau.y],
-                v_f,
-            };
-            cx.shared.recorder.lock(|r| r.record(&s, fault));
+        if let Some(s) = period::recorded(&p, config::CONFIG.record_every) {
+            cx.shared.recorder.lock(|r| r.record(&s, p.fault));
         }
-
-        // Telemetry: periodic samples; the fault event the moment the latch is seen.
         let producer = cx.local.producer;
-        let mut push = |r: Record| {
+        motor.sample(&p, t, |r| {
             if producer.enqueue(r).is_err() {
                 let _ = TELEMETRY_DROPS.fetch_update(Relaxed, Relaxed, |n| n.checked_add(1));
             }
-        };
-        if let (Some(fault), false) = (fault, *cx.local.fault_sent) {
-            *cx.local.fault_sent = true;
-            push(Record::Fault {
-                tick: tick.0,
-                t,
-                fault,
-            });
-        }
-        if print || stream {
-            push(Record::Sample {
-                tick: tick.0,
-                t,
-                error,
-                theta: [q.x, q.y],
-                delta: [q.z, q.w],
-                tau: [cmd.tau.x, cmd.tau.y],
-                v_a: cmd.v_a,
-                v_f,
-                print,
-                stream,
-            });
-        }
+        });
 
         #[cfg(feature = "inject-panic")]
-        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
+        if cx.local.move_clock.elapsed(p.tick) == MOTOR_HZ {
             panic!("injected panic in the motor loop at t = 1 s");
         }
         #[cfg(feature = "inject-hardfault")]
-        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
+        if cx.local.move_clock.elapsed(p.tick) == MOTOR_HZ {
             defmt::warn!("injecting an undefined instruction in the motor loop at t = 1 s");
             cortex_m::asm::udf();
         }
         #[cfg(feature = "inject-stack-overflow")]
-        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
+        if cx.local.move_clock.elapsed(p.tick) == MOTOR_HZ {
             defmt::warn!("injecting unbounded recursion in the motor loop at t = 1 s");
             /// Uses 1 KiB of stack per level, forever.
             #[allow(unconditional_recursion)]
@@ -617,19 +532,24 @@ mod app {
         // the piezo loop) would freeze the encoders under the move's torque, and the drive's
         // frozen-encoder check would latch before the supervisor's liveness check.
         #[cfg(feature = "inject-piezo-stall")]
-        if cx.local.move_clock.elapsed(tick) == 3 * MOTOR_HZ {
+        if cx.local.move_clock.elapsed(p.tick) == 3 * MOTOR_HZ {
             defmt::warn!("injecting a stalled piezo loop (TIM2 masked) at t = 3 s");
             cortex_m::peripheral::NVIC::mask(stm32f4::stm32f405::Interrupt::TIM2);
         }
         #[cfg(feature = "inject-overrun")]
-        if cx.local.move_clock.elapsed(tick) == MOTOR_HZ {
+        if cx.local.move_clock.elapsed(p.tick) == MOTOR_HZ {
             defmt::warn!("injecting an overrun at t = 1 s");
             cortex_m::asm::delay(3 * (TIMER_CLOCK_HZ / MOTOR_HZ));
         }
+        // The next period began before this one ended: on the QEMU board, the piezo loop has
+        // started it (pended the interrupt) again.
+        #[cfg(not(feature = "qemu"))]
         let missed = cx.local.tim3.sr().read().uif().bit_is_set();
+        #[cfg(feature = "qemu")]
+        let missed = cortex_m::peripheral::NVIC::is_pending(stm32f4::stm32f405::Interrupt::TIM3);
         stats::MOTOR.record(clock::now().wrapping_sub(start), missed);
         if missed {
-            cx.shared.ctrl.lock(|c| c.trip(Fault::Overrun));
+            cx.shared.control.lock(|c| c.ctrl.trip(Fault::Overrun));
             cx.shared.board.lock(safe_outputs);
         }
     }
@@ -647,7 +567,7 @@ mod app {
 
     /// Supervisor: liveness of both loops, watchdog, enable line, fault report,
     /// load report once a second.
-    #[task(binds = TIM4, priority = 1, local = [tim4, last_heartbeat, last_piezo_beat, supervisor_ticks, reported_fault, #[cfg(feature = "hw")] iwdg], shared = [ctrl, board])]
+    #[task(binds = TIM4, priority = 1, local = [tim4, last_heartbeat, last_piezo_beat, supervisor_ticks, reported_fault, #[cfg(feature = "hw")] iwdg], shared = [control, board])]
     fn supervisor(mut cx: supervisor::Context) {
         cx.local.tim4.sr().write(|w| w.uif().clear_bit());
         // Both control loops must have run since the last check.
@@ -655,11 +575,11 @@ mod app {
         let alive = motor != *cx.local.last_heartbeat && piezo != *cx.local.last_piezo_beat;
         *cx.local.last_heartbeat = motor;
         *cx.local.last_piezo_beat = piezo;
-        let fault = cx.shared.ctrl.lock(|c| {
+        let fault = cx.shared.control.lock(|c| {
             if !alive {
-                c.trip(Fault::Overrun);
+                c.ctrl.trip(Fault::Overrun);
             }
-            c.fault()
+            c.ctrl.fault()
         });
         if fault.is_some() {
             cx.shared.board.lock(safe_outputs);
@@ -674,6 +594,13 @@ mod app {
             defmt::error!("safe state: {=str} (latched until reset)", f.as_str());
         }
         *cx.local.supervisor_ticks = cx.local.supervisor_ticks.wrapping_add(1);
+        // A verdict run ends a second after its time on the supervisor's own clock too: the
+        // motor loop, which measures the run, stops with the piezo loop on the QEMU board
+        // (`inject-piezo-stall`).
+        #[cfg(all(feature = "qemu", not(feature = "link-session")))]
+        if *cx.local.supervisor_ticks == (config::RUN_SECONDS as u32 + 1) * SUPERVISOR_HZ {
+            cx.shared.board.lock(|b| b.run.finished = true);
+        }
         if cx.local.supervisor_ticks.is_multiple_of(SUPERVISOR_HZ) {
             let (pr, pm, px) = stats::PIEZO.take_window();
             let (mr, mm, mx) = stats::MOTOR.take_window();

@@ -7,7 +7,10 @@
 //! ([`crate::scenario::read_model`]: the readers `flexarm-sim run` uses), refuses what the
 //! firmware cannot run, designs the observer gain for that arm and the patch's film map
 //! `c_f = k_s Δφ'` at the two motor periods the firmware has (0.001 s on the hardware board,
-//! 0.01 s under QEMU) and returns the Rust source of `firmware/src/generated.rs`.
+//! 0.01 s under QEMU) and returns the Rust source of `firmware/src/generated.rs`: the model,
+//! and each board's whole configuration (`flexarm_machine::BoardConfig::for_board`, the same
+//! function the host runs on the same model: [`FirmwareParams::board`]) with its hash, so the
+//! firmware computes neither.
 //!
 //! The arm: the file's `[arm]` (the paper's values where it has none), with the modes of
 //! `[piezo.computed]` when `piezo.modes = "computed"`, else the paper's frequencies on the
@@ -40,6 +43,8 @@ use flexarm_core::model::Model;
 use flexarm_core::observer::{self, Gain, NoiseModel, film_map};
 use flexarm_core::observer_gains::THETA_NOMINAL;
 use flexarm_core::params::ArmParams;
+use flexarm_link::msg::Board;
+use flexarm_machine::BoardConfig;
 
 /// The fragment the firmware is built from, relative to the repository root.
 pub const DEFAULT_FRAGMENT: &str = "firmware/piezo.toml";
@@ -95,6 +100,31 @@ pub struct FirmwareParams {
     pub k_c: f64,
     /// Observer gains, one per entry of [`PERIODS`].
     pub gains: [Gain<f64>; 2],
+}
+
+impl FirmwareParams {
+    /// The configuration `board` boots with, in the firmware's `f32` (the generated file's
+    /// `HARDWARE` or `QEMU`, bit for bit).
+    pub fn board(&self, board: Board) -> BoardConfig {
+        let period = match board {
+            Board::Hardware => 0,
+            Board::Qemu => 1,
+        };
+        let g = &self.gains[period];
+        BoardConfig::for_board(
+            board,
+            self.arm.cast::<f32>(),
+            self.patch.to_f32(),
+            self.k_c as f32,
+            core::array::from_fn(|i| core::array::from_fn(|j| g[(i, j)] as f32)),
+        )
+    }
+}
+
+/// The configuration `board` boots with when the firmware is built from the paper's fragment
+/// (the default `firmware/piezo.toml`): the generated file's `HARDWARE` or `QEMU`, bit for bit.
+pub fn paper_board(board: Board) -> Result<BoardConfig, Error> {
+    Ok(design(&paper_fragment()?)?.board(board))
 }
 
 /// Reads `fragment_text`, checks that the firmware can run it and designs the observer gains.
@@ -230,12 +260,14 @@ pub fn render(fragment_text: &str, names: &Names<'_>) -> Result<String, Error> {
 }
 
 /// The first line of every generated parameter file.
-pub const GENERATED_FIRST_LINE: &str =
-    "//! The arm model, piezo patch and observer gains the firmware runs.";
+pub const GENERATED_FIRST_LINE: &str = "//! The arm model, piezo patch and observer gains the firmware runs, in each board's configuration.";
 
-/// The first line files generated before the arm model joined them had.
-const GENERATED_FIRST_LINE_PAPER_ARM: &str =
-    "//! The piezo patch and observer gains the firmware runs (paper's arm, modes = \"paper\").";
+/// The first lines files generated before had: before the boards' configurations joined them,
+/// and before the arm model did.
+const GENERATED_FIRST_LINES_BEFORE: [&str; 2] = [
+    "//! The arm model, piezo patch and observer gains the firmware runs.",
+    "//! The piezo patch and observer gains the firmware runs (paper's arm, modes = \"paper\").",
+];
 
 /// The Rust source for parameters already designed ([`design`]).
 pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
@@ -264,8 +296,14 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
          //! `NoiseModel::default()`) of [`ARM`] at rest at `THETA_NOMINAL`, for this patch's\n\
          //! film map `c_f = k_s Δφ' = [{cf0}, {cf1}]` V/(√kg·m).\n\
          \n\
-         use flexarm_core::Vector2;\n\
-         use flexarm_core::params::{{ArmParams, ModalData}};\n\
+         use flexarm_core::control::motor::MotorLaw;\n\
+         use flexarm_core::control::piezo::{{PiezoGains, PiezoPatch}};\n\
+         use flexarm_core::drive::MoveLimits;\n\
+         use flexarm_core::motion::{{MotionLimits, Thermal}};\n\
+         use flexarm_core::params::{{ArmParams, Gains, Limits, ModalData}};\n\
+         use flexarm_core::{{Vector2, Vector4}};\n\
+         use flexarm_link::msg::Board;\n\
+         use flexarm_machine::BoardConfig;\n\
          \n\
          /// The controller's model of the arm (SI; `flexarm_core::params::ArmParams`): the\n\
          /// source's `[arm]` (the paper's values where it has none); its modes:\n\
@@ -289,19 +327,20 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
          \x20   }},\n\
          }};\n\
          \n\
-         /// Patch start from joint 2 `x_a` [m].\n\
-         pub const X_A: f32 = {x_a};\n\
-         /// Patch length `l_a` [m].\n\
-         pub const L_A: f32 = {l_a};\n\
-         /// Slope differences `Δφ'_j` across the patch, the modes of [`ARM`] [1/(m·√kg)].\n\
-         pub const SLOPE_DIFF: [f32; 2] = [{sd0}, {sd1}];\n\
+         /// The piezo patch on link 2 (`flexarm_core::control::piezo::PiezoPatch`): its start\n\
+         /// from joint 2 `x_a` [m], its length `l_a` [m], the slope differences `Δφ'_j` across it\n\
+         /// on the modes of [`ARM`] [1/(m·√kg)], the actuator's moment per volt `k_a` [N·m/V] and\n\
+         /// the film's volts per radian of slope difference `k_s` [V/rad].\n\
+         pub const PATCH: PiezoPatch<f32> = PiezoPatch {{\n\
+         \x20   x_a: {x_a},\n\
+         \x20   l_a: {l_a},\n\
+         \x20   slope_diff: Vector2::new({sd0}, {sd1}),\n\
+         \x20   k_a: {k_a},\n\
+         \x20   k_s: {k_s},\n\
+         }};\n\
          /// Slope differences across the patch on the QEMU board's simulated arm (the paper's\n\
          /// arm, uniform link 2, whatever [`ARM`] is) [1/(m·√kg)].\n\
          pub const QEMU_SLOPE_DIFF: [f32; 2] = [{qd0}, {qd1}];\n\
-         /// Actuator moment per volt `k_a` [N·m/V].\n\
-         pub const K_A: f32 = {k_a};\n\
-         /// Film volts per radian of slope difference `k_s` [V/rad].\n\
-         pub const K_S: f32 = {k_s};\n\
          /// Rate-feedback gain `k_c` of `V_a = −k_c V̇_f` [s] (the fragment's {k_c_source}).\n\
          pub const K_C: f32 = {k_c};\n",
         frag = names.fragment,
@@ -350,7 +389,150 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
         }
         s += "];\n";
     }
+    for (board, name, gain) in [
+        (Board::Hardware, "HARDWARE", "GAIN_1KHZ"),
+        (Board::Qemu, "QEMU", "GAIN_100HZ"),
+    ] {
+        let c = p.board(board);
+        let _ = write!(
+            s,
+            "\n/// Everything the {which} boots with (`flexarm_machine::BoardConfig::for_board` on this\n\
+             /// model): its hash is [`{name}_HASH`].\n\
+             pub const {name}: BoardConfig = {lit};\n\
+             /// `BoardConfig::hash` of [`{name}`], the handshake's `params_hash`.\n\
+             pub const {name}_HASH: u32 = {hash:#010x};\n",
+            which = match board {
+                Board::Hardware => "hardware board",
+                Board::Qemu => "QEMU board",
+            },
+            lit = config_literal(&c, gain),
+            hash = c.hash(),
+        );
+    }
     s
+}
+
+/// `c` as a Rust expression, its arm, patch and observer gain the constants [`source`] wrote
+/// (`ARM`, `PATCH`, `gain`).
+fn config_literal(c: &BoardConfig, gain: &str) -> String {
+    let f = |x: f32| format!("{x:e}");
+    let v2 = |x: Vector2<f32>| format!("Vector2::new({}, {})", f(x.x), f(x.y));
+    let v4 = |x: flexarm_core::Vector4<f32>| {
+        format!(
+            "Vector4::new({}, {}, {}, {})",
+            f(x.x),
+            f(x.y),
+            f(x.z),
+            f(x.w)
+        )
+    };
+    let (g, m, t, mv, l) = (&c.gains, &c.motion, &c.motion.thermal, &c.moves, &c.limits);
+    format!(
+        "BoardConfig {{
+    board: Board::{board:?},
+    arm: ARM,
+    patch: PATCH,
+    law: MotorLaw::{law:?},
+    gains: Gains {{
+        lambda: {lambda},
+        kp: {kp},
+        d_delta: {d_delta},
+        epsilon: {epsilon},
+        phi: {phi},
+        epsilon_floor: {epsilon_floor},
+        mu: {mu},
+    }},
+    piezo: PiezoGains {{
+        k_c: K_C,
+        cutoff_hz: {cutoff_hz},
+    }},
+    limits: Limits {{
+        tau_max: {tau_max},
+        v_a_max: {v_a_max},
+        v_a_min: {v_a_min},
+    }},
+    motion: MotionLimits {{
+        following: {following},
+        speed: {speed},
+        runaway_speed: {runaway_speed},
+        runaway_torque: {runaway_torque},
+        runaway_error: {runaway_error},
+        runaway_periods: {runaway_periods},
+        frozen_torque: {frozen_torque},
+        frozen_periods: {frozen_periods},
+        frozen_step: {frozen_step},
+        range_min: {range_min},
+        range_max: {range_max},
+        stop_accel: {stop_accel},
+        range_margin: {range_margin},
+        thermal: Thermal {{
+            continuous: {continuous},
+            time_constant: {time_constant},
+            derate: {derate},
+            floor: {floor},
+            trip: {trip},
+        }},
+    }},
+    moves: MoveLimits {{
+        speed_max: {speed_max},
+        accel_max: {accel_max},
+        theta_max: {theta_max},
+        theta_min: {theta_min},
+        torque_share: {torque_share},
+    }},
+    observer_gain: {gain},
+    piezo_hz: {piezo_hz},
+    motor_divider: {motor_divider},
+    print_every: {print_every},
+    record_every: {record_every},
+    link_timeout_s: {link_timeout_s},
+    amplifier_settle: {amplifier_settle},
+    amplifier_debounce: {amplifier_debounce},
+}}",
+        board = c.board,
+        law = c.law,
+        lambda = v4(g.lambda),
+        kp = v4(g.kp),
+        d_delta = v2(g.d_delta),
+        epsilon = v2(g.epsilon),
+        phi = v2(g.phi),
+        epsilon_floor = f(g.epsilon_floor),
+        mu = f(g.mu),
+        cutoff_hz = f(c.piezo.cutoff_hz),
+        tau_max = v2(l.tau_max),
+        v_a_max = f(l.v_a_max),
+        v_a_min = f(l.v_a_min),
+        following = v2(m.following),
+        speed = v2(m.speed),
+        runaway_speed = f(m.runaway_speed),
+        runaway_torque = v2(m.runaway_torque),
+        runaway_error = f(m.runaway_error),
+        runaway_periods = m.runaway_periods,
+        frozen_torque = v2(m.frozen_torque),
+        frozen_periods = m.frozen_periods,
+        frozen_step = f(m.frozen_step),
+        range_min = v2(m.range_min),
+        range_max = v2(m.range_max),
+        stop_accel = v2(m.stop_accel),
+        range_margin = f(m.range_margin),
+        continuous = v2(t.continuous),
+        time_constant = f(t.time_constant),
+        derate = f(t.derate),
+        floor = f(t.floor),
+        trip = f(t.trip),
+        speed_max = v2(mv.speed_max),
+        accel_max = v2(mv.accel_max),
+        theta_max = v2(mv.theta_max),
+        theta_min = v2(mv.theta_min),
+        torque_share = f(mv.torque_share),
+        piezo_hz = c.piezo_hz,
+        motor_divider = c.motor_divider,
+        print_every = c.print_every,
+        record_every = c.record_every,
+        link_timeout_s = c.link_timeout_s,
+        amplifier_settle = c.amplifier_settle,
+        amplifier_debounce = c.amplifier_debounce,
+    )
 }
 
 /// The paper's patch (`x_a = 0.09 m`, `l_a = 0.35 m`) with `k_c = 30 s` on the paper's modes as a
@@ -383,8 +565,8 @@ pub fn paper_fragment() -> Result<String, Error> {
 /// Whether `text` is a generated parameter file (its first line is the one [`source`] writes),
 /// which `firmware-params` may replace without `--force`.
 pub fn is_generated_source(text: &str) -> bool {
-    let first = text.lines().next();
-    first == Some(GENERATED_FIRST_LINE) || first == Some(GENERATED_FIRST_LINE_PAPER_ARM)
+    let first = text.lines().next().unwrap_or("");
+    first == GENERATED_FIRST_LINE || GENERATED_FIRST_LINES_BEFORE.contains(&first)
 }
 
 /// Whether `text` is a `[piezo]` fragment a flexarm command wrote (the paper's, by

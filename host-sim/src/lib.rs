@@ -8,6 +8,7 @@
 
 pub mod actuators;
 pub mod cli;
+pub mod eigen;
 pub mod firmware_params;
 pub mod identify;
 pub mod lab;
@@ -15,6 +16,7 @@ pub mod montecarlo;
 pub mod outdir;
 pub mod output;
 pub mod plant;
+pub mod rig;
 pub mod scenario;
 pub mod sim;
 pub mod spillover;

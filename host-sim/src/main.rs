@@ -9,7 +9,7 @@ use flexarm_sim::outdir::{OutDir, write_atomic};
 use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource};
 use flexarm_sim::study::{self, Case, Options, Outcome};
 use flexarm_sim::truth_plant::TruthSpec;
-use flexarm_sim::{firmware_params, montecarlo, output, scenario, spillover_study};
+use flexarm_sim::{firmware_params, montecarlo, output, plant, scenario, spillover_study};
 
 #[derive(Parser)]
 #[command(
@@ -70,6 +70,9 @@ enum Command {
         /// Length of the closed-loop runs [s].
         #[arg(long, default_value_t = 5.0)]
         duration: f64,
+        /// Bond factors of the film's feedthrough the laws are compared at, 0 to 1.
+        #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::spillover_study::BONDS)]
+        bond: Vec<f64>,
         /// Output folder.
         #[arg(long, default_value = "out/spillover")]
         out: PathBuf,
@@ -200,6 +203,10 @@ struct PlantArgs {
     /// Modes of the truth plant's link 2, 1 to 10 [default: 6].
     #[arg(long)]
     modes: Option<usize>,
+    /// Bond factor of the truth plant's film feedthrough, 0 to 1 [default: 0]
+    /// (`plant.film_bond`).
+    #[arg(long)]
+    film_bond: Option<f64>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -212,17 +219,26 @@ impl PlantArgs {
     /// The truth plant asked for, checked.
     fn truth(&self) -> Result<Option<TruthSpec>> {
         if self.plant == PlantKind::Model {
-            return match self.modes {
-                Some(_) => Err("--modes needs --plant truth".into()),
-                None => Ok(None),
+            return match (self.modes, self.film_bond) {
+                (Some(_), _) => Err("--modes needs --plant truth".into()),
+                (_, Some(_)) => Err("--film-bond needs --plant truth".into()),
+                (None, None) => Ok(None),
             };
         }
         let d = TruthSpec::default();
         let t = TruthSpec {
             modes: self.modes.unwrap_or(d.modes),
+            film_bond: self.film_bond.unwrap_or(d.film_bond),
             ..d
         };
-        t.validate().map_err(|(_, msg)| format!("--modes: {msg}"))?;
+        t.validate().map_err(|(key, msg)| {
+            let option = if key == "plant.film_bond" {
+                "--film-bond"
+            } else {
+                "--modes"
+            };
+            format!("{option}: {msg}")
+        })?;
         Ok(Some(t))
     }
 }
@@ -303,13 +319,16 @@ fn main_result(cli: Cli) -> Result<()> {
             common.apply(&mut opts.rates, &mut opts.duration);
             let cases = study::paper_cases(&opts).map_err(|e| e.to_string())?;
             for c in &cases {
-                c.config.validate(&c.trajectory).map_err(|e| {
-                    if common.overrides() {
-                        format!("with the command-line options: {e}")
-                    } else {
-                        e.to_string()
-                    }
-                })?;
+                c.config
+                    .validate(&c.trajectory)
+                    .and_then(|()| plant::check_step(&c.config, start(&c.trajectory)))
+                    .map_err(|e| {
+                        if common.overrides() {
+                            format!("with the command-line options: {e}")
+                        } else {
+                            e.to_string()
+                        }
+                    })?;
             }
             let note = study::printed_circle_error()
                 .map(|e| format!("{e}; the study runs the nearest reachable circle of the same radius, centre (0.65, 0) m (docs/model.md).\n\n"))
@@ -332,9 +351,12 @@ fn main_result(cli: Cli) -> Result<()> {
             }
             common.apply(&mut config.rates, &mut config.duration);
             // The overrides go through the same check as the file.
-            config.validate(&sc.trajectory).map_err(|e| {
-                format!("{}: with the command-line options: {e}", scenario.display())
-            })?;
+            config
+                .validate(&sc.trajectory)
+                .and_then(|()| plant::check_step(&config, start(&sc.trajectory)))
+                .map_err(|e| {
+                    format!("{}: with the command-line options: {e}", scenario.display())
+                })?;
             let report = format!("{}_indices.md", sc.name);
             let command = format!("run:{}", sc.name);
             let name: &'static str = Box::leak(sc.name.into_boxed_str());
@@ -395,7 +417,7 @@ fn main_result(cli: Cli) -> Result<()> {
                 out: &out_name,
             };
             let p = firmware_params::design(&text)
-                .map_err(|e| flexarm_beam::config::at_line(&path, &text, &e.0))?;
+                .map_err(|e| flexarm_beam::toml_at::at_line(&path, &text, &e.0))?;
             let source = firmware_params::source(&p, &names);
             refuse_foreign(&out, force, firmware_params::is_generated_source)?;
             write_atomic(&out, source.as_bytes())?;
@@ -417,6 +439,7 @@ fn main_result(cli: Cli) -> Result<()> {
         Command::Spillover {
             modes,
             duration,
+            bond,
             out,
             no_plots,
             force,
@@ -429,7 +452,10 @@ fn main_result(cli: Cli) -> Result<()> {
                 modes,
                 ..TruthSpec::default()
             };
-            let report = spillover_study::run(&spec, duration).map_err(|e| e.to_string())?;
+            if let Some(b) = bond.iter().find(|b| !(0.0..=1.0).contains(*b)) {
+                return Err(format!("--bond {b} must lie in 0 to 1"));
+            }
+            let report = spillover_study::run(&spec, &bond, duration).map_err(|e| e.to_string())?;
             let md = spillover_study::markdown(&report);
             let dir = OutDir::open(&out, "spillover", force)?;
             for (name, text) in [
@@ -494,7 +520,7 @@ fn main_result(cli: Cli) -> Result<()> {
                     let text = std::fs::read_to_string(p)
                         .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
                     let (arm, choice) = flexarm_sim::scenario::read_model(&text)
-                        .map_err(|e| flexarm_beam::config::at_line(p, &text, &e.0))?;
+                        .map_err(|e| flexarm_beam::toml_at::at_line(p, &text, &e.0))?;
                     Some((arm, choice.patch))
                 }
                 None => None,
@@ -624,6 +650,11 @@ fn main_result(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// Where a trajectory starts [rad].
+fn start(t: &flexarm_core::trajectory::JointTrajectory<f32>) -> flexarm_core::Vector2<f64> {
+    t.sample(0.0).q.cast()
 }
 
 /// Whether `a` and `b` name the same file (both existing, or the same path as written).

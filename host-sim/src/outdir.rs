@@ -7,17 +7,29 @@
 //!   alone and the command fails, unless `--force`;
 //! - a command's earlier files that this run did not write again are removed, so no stale figure
 //!   sits beside new data; files of other commands stay (`run` after `paper` keeps the study);
-//! - an error before the end leaves the folder as it was: the staging folder is removed, nothing
+//! - an error before the end leaves the folder as it was: the staging folder is removed (and
+//!   the output folder too, when the command created it and it is still empty), nothing
 //!   half-written looks like a result;
+//! - commands that finish at once into one folder (parallel `run`s) take turns: each holds an
+//!   OS lock on the folder (`File::lock`; on a system that cannot open a folder as a file, on
+//!   a `.flexarm-outputs.lock` file in it) while it moves its files and updates the manifest,
+//!   so each one's update starts from the last one's and no entry is lost;
 //! - paths are relative to the current directory, like any command-line tool's (`out/` by
 //!   default).
 
 use std::collections::BTreeSet;
 use std::fs;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The manifest's name: one `command<TAB>file` line per file a flexarm command wrote.
 pub const MANIFEST: &str = ".flexarm-outputs";
+/// The file whose lock a commit holds where the folder itself cannot be locked (empty; it
+/// stays).
+pub const LOCK: &str = ".flexarm-outputs.lock";
+
+/// Output folders opened by this process: each staging folder's name is its own.
+static OPENED: AtomicU64 = AtomicU64::new(0);
 
 /// An output folder being written by one command.
 pub struct OutDir {
@@ -26,6 +38,9 @@ pub struct OutDir {
     command: String,
     force: bool,
     committed: bool,
+    /// The folders [`Self::open`] created, outermost first: removed again, when empty, if the
+    /// command does not commit.
+    created: Vec<PathBuf>,
 }
 
 fn io(what: &str, path: &Path, e: std::io::Error) -> String {
@@ -54,19 +69,35 @@ impl OutDir {
     /// Opens `dir` (created if missing) for `command` (a stable key such as `paper` or
     /// `run:trapezoid`) and a fresh staging folder inside it.
     pub fn open(dir: &Path, command: &str, force: bool) -> Result<Self, String> {
-        fs::create_dir_all(dir).map_err(|e| io("create", dir, e))?;
-        let staging = dir.join(format!(".flexarm-staging-{}", std::process::id()));
-        if staging.exists() {
-            fs::remove_dir_all(&staging).map_err(|e| io("clear", &staging, e))?;
-        }
-        fs::create_dir(&staging).map_err(|e| io("create", &staging, e))?;
-        Ok(Self {
+        // The folders that do not exist yet, outermost first.
+        let mut created: Vec<PathBuf> = dir
+            .ancestors()
+            .filter(|a| !a.as_os_str().is_empty())
+            .take_while(|a| !a.exists())
+            .map(Path::to_path_buf)
+            .collect();
+        created.reverse();
+        let mut out = Self {
             dir: dir.to_path_buf(),
-            staging,
+            staging: dir.join(format!(
+                ".flexarm-staging-{}-{}",
+                std::process::id(),
+                OPENED.fetch_add(1, Ordering::Relaxed)
+            )),
             command: command.to_string(),
             force,
             committed: false,
-        })
+            created: Vec::new(),
+        };
+        let made = fs::create_dir_all(dir).map_err(|e| io("create", dir, e));
+        // What exists now of what did not (all of it, unless creating failed midway).
+        out.created = created.into_iter().filter(|d| d.exists()).collect();
+        made?;
+        if out.staging.exists() {
+            fs::remove_dir_all(&out.staging).map_err(|e| io("clear", &out.staging, e))?;
+        }
+        fs::create_dir(&out.staging).map_err(|e| io("create", &out.staging, e))?;
+        Ok(out)
     }
 
     /// Where the command writes its files until [`Self::commit`].
@@ -97,6 +128,8 @@ impl OutDir {
     /// the new set. Returns the names written, sorted. Fails, changing nothing, if a staged
     /// name collides with a file no flexarm command wrote (without `force`).
     pub fn commit(mut self) -> Result<Vec<String>, String> {
+        // One commit at a time in this folder; the lock goes when `_lock` is dropped.
+        let _lock = lock(&self.dir)?;
         let mut names = BTreeSet::new();
         for entry in fs::read_dir(&self.staging).map_err(|e| io("read", &self.staging, e))? {
             let entry = entry.map_err(|e| io("read", &self.staging, e))?;
@@ -144,11 +177,31 @@ impl OutDir {
     }
 }
 
+/// An exclusive lock on the folder `dir`, held until the file is dropped.
+fn lock(dir: &Path) -> Result<fs::File, String> {
+    let file = fs::File::open(dir).or_else(|_| {
+        let path = dir.join(LOCK);
+        fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(|e| io("open", &path, e))
+    })?;
+    file.lock().map_err(|e| io("lock", dir, e))?;
+    Ok(file)
+}
+
 impl Drop for OutDir {
-    /// Without a commit, the staging folder and everything in it go.
+    /// Without a commit, the staging folder and everything in it go, and the folders `open`
+    /// created if nothing else is in them.
     fn drop(&mut self) {
         if !self.committed {
             let _ = fs::remove_dir_all(&self.staging);
+            for d in self.created.iter().rev() {
+                // Fails, and keeps the folder, when something else is in it.
+                let _ = fs::remove_dir(d);
+            }
         }
     }
 }
@@ -161,7 +214,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    fs::write(&tmp, bytes).map_err(|e| io("write", &tmp, e))?;
+    // The error names the user's path, not the temporary file.
+    fs::write(&tmp, bytes).map_err(|e| io("write", path, e))?;
     fs::rename(&tmp, path).map_err(|e| {
         let _ = fs::remove_file(&tmp);
         io("write", path, e)
@@ -261,8 +315,77 @@ mod tests {
             let o = OutDir::open(&d, "paper", false).unwrap();
             write(&o, "a.csv", "1");
         }
+        assert!(!d.exists(), "not even the folder it created");
+        // A folder that was there stays, empty.
+        fs::create_dir_all(&d).unwrap();
+        drop(OutDir::open(&d, "paper", false).unwrap());
         assert_eq!(fs::read_dir(&d).unwrap().count(), 0);
         fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_failed_command_leaves_no_folder_it_created() {
+        let d = scratch("created");
+        let deep = d.join("a").join("b");
+        {
+            let o = OutDir::open(&deep, "optimize", false).unwrap();
+            write(&o, "x.csv", "1");
+        }
+        assert!(!d.exists(), "every folder open created is gone");
+        // A folder that was there stays, and so does one that got another file meanwhile.
+        fs::create_dir_all(&d).unwrap();
+        {
+            let _o = OutDir::open(&deep, "optimize", false).unwrap();
+            fs::write(d.join("a").join("mine.txt"), "mine").unwrap();
+        }
+        assert!(d.join("a").join("mine.txt").exists());
+        assert!(!deep.exists());
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn commits_at_once_into_one_folder_keep_every_entry() {
+        let d = scratch("parallel");
+        let runs: Vec<String> = (0..12).map(|i| format!("run:r{i}")).collect();
+        // Every thread stages first, then all commit together.
+        let staged: Vec<OutDir> = runs
+            .iter()
+            .map(|c| {
+                let o = OutDir::open(&d, c, false).unwrap();
+                write(&o, &format!("{}.csv", &c[4..]), c);
+                o
+            })
+            .collect();
+        let barrier = std::sync::Barrier::new(staged.len());
+        std::thread::scope(|s| {
+            for o in staged {
+                let barrier = &barrier;
+                s.spawn(move || {
+                    barrier.wait();
+                    o.commit().unwrap();
+                });
+            }
+        });
+        let manifest = fs::read_to_string(d.join(MANIFEST)).unwrap();
+        for c in &runs {
+            assert!(
+                manifest.contains(&format!("{c}\t{}.csv\n", &c[4..])),
+                "{c} lost: {manifest}"
+            );
+        }
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn atomic_write_names_the_path_asked_for() {
+        let d = scratch("atomic-missing");
+        let p = d.join("nodir").join("g.rs");
+        let e = write_atomic(&p, b"x").unwrap_err();
+        assert!(
+            e.starts_with(&format!("cannot write {}: ", p.display())),
+            "{e}"
+        );
+        assert!(!e.contains(".tmp-"), "{e}");
     }
 
     #[test]

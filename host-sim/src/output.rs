@@ -12,29 +12,87 @@ use crate::study::{Outcome, label};
 /// The header of a trace's CSV ([`write_csv`], [`read_csv`]).
 pub const CSV_HEADER: &str = "t_s,theta1_rad,theta2_rad,theta1_d_rad,theta2_d_rad,delta1,delta2,delta1_dot,delta2_dot,delta1_seen,delta2_seen,tip_m,tau1_Nm,tau2_Nm,v_a_V,v_f_V";
 
+/// Most samples a trace read back holds: as many as a run keeps
+/// ([`crate::sim::MAX_RECORDED_SAMPLES`], about 150 MB in memory).
+pub const MAX_TRACE_SAMPLES: usize = crate::sim::MAX_RECORDED_SAMPLES as usize;
+/// Largest trace file read [bytes]: 300 bytes a sample of [`MAX_TRACE_SAMPLES`] (a row as
+/// [`trace_csv`] writes it is about 235 bytes). A larger file is refused before it is read.
+pub const MAX_TRACE_BYTES: u64 = 300 * MAX_TRACE_SAMPLES as u64;
+/// Longest line of a trace [bytes]: sixteen numbers with room to spare.
+const MAX_TRACE_LINE: usize = 4096;
+
 /// Reads a trace written by [`write_csv`] (a run of the simulator or a recording of the
 /// firmware, `flexarm record`); an error names the file, the line and the column. `NaN` stands
-/// for a value the source did not have (a recording has no modal rates).
+/// for a value the source did not have (a recording has no modal rates). A byte-order mark
+/// before the header is skipped. The file is read line by line, never whole: one larger than
+/// [`MAX_TRACE_BYTES`], with more than [`MAX_TRACE_SAMPLES`] samples or a line longer than
+/// 4096 bytes is refused with its size.
 pub fn read_csv(path: &Path) -> Result<Vec<crate::sim::Sample>, String> {
+    read_csv_within(path, MAX_TRACE_BYTES, MAX_TRACE_SAMPLES)
+}
+
+/// [`read_csv`] with the bounds `max_bytes` and `max_samples`.
+fn read_csv_within(
+    path: &Path,
+    max_bytes: u64,
+    max_samples: usize,
+) -> Result<Vec<crate::sim::Sample>, String> {
     use crate::sim::Sample;
     use flexarm_core::plant::State;
     use nalgebra::{Vector2, Vector4};
+    use std::io::{BufRead, Read};
     let shown = path.display();
-    let text = fs::read_to_string(path).map_err(|e| format!("{shown}: {e}"))?;
-    let mut lines = text.lines();
-    if lines.next().map(str::trim) != Some(CSV_HEADER) {
+    let file = fs::File::open(path).map_err(|e| format!("{shown}: {e}"))?;
+    let bytes = file.metadata().map_err(|e| format!("{shown}: {e}"))?.len();
+    let mb = |b: u64| b as f64 / 1e6;
+    if bytes > max_bytes {
         return Err(format!(
-            "{shown}:1: not a flexarm trace (the header must be {CSV_HEADER})"
+            "{shown}: {:.1} MB: a trace is read up to {:.0} MB ({max_samples} samples)",
+            mb(bytes),
+            mb(max_bytes)
         ));
     }
-    let mut trace = Vec::new();
-    for (i, line) in lines.enumerate() {
-        let n = i + 2;
+    let header = |first: &str| match first.trim_start_matches('\u{feff}').trim() == CSV_HEADER {
+        true => Ok(()),
+        false => Err(format!(
+            "{shown}:1: not a flexarm trace (the header must be {CSV_HEADER})"
+        )),
+    };
+    let mut reader = std::io::BufReader::new(file);
+    let mut line = String::new();
+    let mut n = 0;
+    let mut trace: Vec<Sample> = Vec::new();
+    loop {
+        line.clear();
+        n += 1;
+        let read = reader
+            .by_ref()
+            .take(MAX_TRACE_LINE as u64 + 1)
+            .read_line(&mut line)
+            .map_err(|e| format!("{shown}:{n}: {e}"))?;
+        if read == 0 {
+            break;
+        }
+        if read > MAX_TRACE_LINE && !line.ends_with('\n') {
+            return Err(format!(
+                "{shown}:{n}: a line longer than {MAX_TRACE_LINE} bytes: not a flexarm trace"
+            ));
+        }
+        if n == 1 {
+            header(&line)?;
+            continue;
+        }
         if line.trim().is_empty() {
             continue;
         }
+        if trace.len() == max_samples {
+            return Err(format!(
+                "{shown}:{n}: more than {max_samples} samples ({:.0} MB file): a trace holds at most {max_samples}, as a run does",
+                mb(bytes)
+            ));
+        }
         let mut v = [0.0f64; 16];
-        let fields: Vec<&str> = line.split(',').collect();
+        let fields: Vec<&str> = line.trim_end_matches(['\n', '\r']).split(',').collect();
         if fields.len() != v.len() {
             return Err(format!(
                 "{shown}:{n}: {} values, the header names {}",
@@ -71,6 +129,9 @@ pub fn read_csv(path: &Path) -> Result<Vec<crate::sim::Sample>, String> {
             v_f: v[15],
         });
     }
+    if n == 1 {
+        header("")?;
+    }
     if trace.len() < 2 {
         return Err(format!("{shown}: fewer than two samples"));
     }
@@ -79,19 +140,28 @@ pub fn read_csv(path: &Path) -> Result<Vec<crate::sim::Sample>, String> {
 
 /// Writes `<scenario>_<controller>.csv`: one row per motor period.
 pub fn write_csv(dir: &Path, o: &Outcome) -> std::io::Result<()> {
-    fs::write(
-        dir.join(format!("{}_{}.csv", o.case.scenario, o.case.controller)),
-        trace_csv(&o.trace),
-    )
+    let path = dir.join(format!("{}_{}.csv", o.case.scenario, o.case.controller));
+    // Row by row: the text of a long trace is never held whole beside the trace.
+    let mut w = std::io::BufWriter::new(fs::File::create(path)?);
+    write_trace(&mut w, &o.trace)?;
+    std::io::Write::flush(&mut w)
 }
 
 /// A trace as the CSV [`read_csv`] reads ([`CSV_HEADER`]).
 pub fn trace_csv(trace: &[crate::sim::Sample]) -> String {
-    let mut s = format!("{CSV_HEADER}\n");
+    let mut out = Vec::new();
+    // Writing into memory does not fail.
+    let _ = write_trace(&mut out, trace);
+    String::from_utf8(out).unwrap_or_default()
+}
+
+/// Writes the header and one row per sample of `trace` to `w`.
+fn write_trace(w: &mut impl std::io::Write, trace: &[crate::sim::Sample]) -> std::io::Result<()> {
+    writeln!(w, "{CSV_HEADER}")?;
     for p in trace {
         let q = &p.x.q;
-        let _ = writeln!(
-            s,
+        writeln!(
+            w,
             "{:.5},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e},{:.7e}",
             p.t,
             q.x,
@@ -109,9 +179,9 @@ pub fn trace_csv(trace: &[crate::sim::Sample]) -> String {
             p.tau.y,
             p.v_a,
             p.v_f
-        );
+        )?;
     }
-    s
+    Ok(())
 }
 
 type Series = (&'static str, Vec<(f64, f64)>);
@@ -345,5 +415,47 @@ mod tests {
         assert!(d.windows(2).all(|w| w[0].0 <= w[1].0), "time stays ordered");
         let short = &pts[..100];
         assert_eq!(decimate(short), short.to_vec());
+    }
+
+    fn scratch(name: &str, text: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("flexarm-output-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        fs::write(&p, text).unwrap();
+        p
+    }
+
+    /// `n` rows of a valid trace.
+    fn rows(n: usize) -> String {
+        let zeros = ",0".repeat(15);
+        (0..n).map(|i| format!("{i}{zeros}\n")).collect()
+    }
+
+    #[test]
+    fn a_trace_is_read_line_by_line_within_its_bounds() {
+        // A byte-order mark before the header (a spreadsheet's export) is skipped.
+        let p = scratch("bom.csv", &format!("\u{feff}{CSV_HEADER}\n{}", rows(3)));
+        assert_eq!(read_csv(&p).map(|t| t.len()), Ok(3));
+        // One sample more than the bound: refused at that line, with the bound.
+        let p = scratch("long.csv", &format!("{CSV_HEADER}\n{}", rows(11)));
+        assert_eq!(read_csv_within(&p, u64::MAX, 11).map(|t| t.len()), Ok(11));
+        let e = read_csv_within(&p, u64::MAX, 10).unwrap_err();
+        assert!(e.contains("long.csv:12: more than 10 samples"), "{e}");
+        // A file larger than the bound is refused before it is read.
+        let size = fs::metadata(&p).unwrap().len();
+        let e = read_csv_within(&p, size - 1, 100).unwrap_err();
+        assert!(e.contains("a trace is read up to"), "{e}");
+        // A line without an end is not read whole.
+        let p = scratch(
+            "line.csv",
+            &format!("{CSV_HEADER}\n{}", "1".repeat(100_000)),
+        );
+        let e = read_csv(&p).unwrap_err();
+        assert!(
+            e.contains("line.csv:2: a line longer than 4096 bytes"),
+            "{e}"
+        );
+        let p = scratch("empty.csv", "");
+        assert!(read_csv(&p).unwrap_err().contains("not a flexarm trace"));
     }
 }

@@ -31,7 +31,9 @@ use flexarm_core::trajectory::{Circle, JointTrajectory, Profile, Trapezoid};
 use flexarm_core::{Vector2, Vector4};
 use serde::Deserialize;
 
-use crate::sim::{Rates, SimConfig, StateSource};
+use flexarm_beam::toml_at::{de_error, number, option_array, outside};
+
+use crate::sim::{Rates, SimConfig, SimError, StateSource};
 use crate::truth_plant::{MAX_MODES, TruthSpec};
 
 /// A readable, one-line error about a scenario file.
@@ -81,17 +83,25 @@ struct PlantSpec {
     tip_inertia: Option<f64>,
     zeta: Option<Vec<f64>>,
     ideal: Option<bool>,
+    #[serde(default, deserialize_with = "option_array")]
     current_tau: Option<[f64; 2]>,
+    #[serde(default, deserialize_with = "option_array")]
     gear_ratio: Option<[f64; 2]>,
+    #[serde(default, deserialize_with = "option_array")]
     rotor_inertia: Option<[f64; 2]>,
+    #[serde(default, deserialize_with = "option_array")]
     viscous: Option<[f64; 2]>,
+    #[serde(default, deserialize_with = "option_array")]
     coulomb: Option<[f64; 2]>,
+    #[serde(default, deserialize_with = "option_array")]
     coulomb_speed: Option<[f64; 2]>,
     amplifier_hz: Option<f64>,
+    #[serde(default, deserialize_with = "option_array")]
     amplifier_window: Option<[f64; 2]>,
     amplifier_current: Option<f64>,
     capacitance: Option<f64>,
     film_corner_hz: Option<f64>,
+    film_bond: Option<f64>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
@@ -130,6 +140,7 @@ impl PlantSpec {
                 self.amplifier_current,
                 self.capacitance,
                 self.film_corner_hz,
+                self.film_bond,
             ];
             let pairs = [
                 self.current_tau,
@@ -179,6 +190,7 @@ impl PlantSpec {
         set(&mut t.amplifier_current, self.amplifier_current);
         set(&mut t.capacitance, self.capacitance);
         set(&mut t.film_corner_hz, self.film_corner_hz);
+        set(&mut t.film_bond, self.film_bond);
         if let Some(w) = self.amplifier_window {
             t.amplifier_window = w;
         }
@@ -220,10 +232,13 @@ impl PlantSpec {
 #[serde(deny_unknown_fields)]
 struct TrajectorySpec {
     kind: KindSpec,
+    #[serde(default, deserialize_with = "option_array")]
     start: Option<[f64; 2]>,
+    #[serde(default, deserialize_with = "option_array")]
     amplitude: Option<[f64; 2]>,
     move_time: Option<f64>,
     ramp_time: Option<f64>,
+    #[serde(default, deserialize_with = "option_array")]
     centre: Option<[f64; 2]>,
     radius: Option<f64>,
     period: Option<f64>,
@@ -231,6 +246,7 @@ struct TrajectorySpec {
     clockwise: Option<bool>,
     elbow: Option<ElbowSpec>,
     margin: Option<f64>,
+    #[serde(default, deserialize_with = "option_array")]
     angles: Option<[f64; 2]>,
 }
 
@@ -289,8 +305,11 @@ struct ControllerSpec {
     piezo: Option<bool>,
     k_c: Option<f64>,
     cutoff_hz: Option<f64>,
+    #[serde(default, deserialize_with = "option_array")]
     kp: Option<[f64; 4]>,
+    #[serde(default, deserialize_with = "option_array")]
     lambda: Option<[f64; 4]>,
+    #[serde(default, deserialize_with = "option_array")]
     d_delta: Option<[f64; 2]>,
     state: Option<StateSpec>,
 }
@@ -320,6 +339,7 @@ struct RatesSpec {
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct LimitsSpec {
+    #[serde(default, deserialize_with = "option_array")]
     tau_max: Option<[f64; 2]>,
     v_a_max: Option<f64>,
     v_a_min: Option<f64>,
@@ -337,7 +357,9 @@ struct ArmSpec {
     i_h1: Option<f64>,
     i_h2: Option<f64>,
     i_2_extra: Option<f64>,
+    #[serde(default, deserialize_with = "option_array")]
     frequency_hz: Option<[f64; 2]>,
+    #[serde(default, deserialize_with = "option_array")]
     zeta: Option<[f64; 2]>,
 }
 
@@ -407,7 +429,7 @@ pub struct Scenario {
 pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| ScenarioError(format!("{}: {e}", path.display())))?;
-    parse(&text).map_err(|e| ScenarioError(flexarm_beam::config::at_line(path, &text, &e.0)))
+    parse(&text).map_err(|e| ScenarioError(flexarm_beam::toml_at::at_line(path, &text, &e.0)))
 }
 
 /// A model of the arm on its own (`cargo sim identify` writes one; `cargo sim firmware-params`
@@ -425,8 +447,7 @@ pub fn read_model(
         // Read by `read_piezo`; named here so that no other table passes.
         piezo: Option<toml::Table>,
     }
-    let f: ModelFile = toml::from_str(text)
-        .map_err(|e| ScenarioError(flexarm_beam::config::toml_error(text, &e)))?;
+    let f: ModelFile = toml::from_str(text).map_err(|e| ScenarioError(de_error(text, &e)))?;
     if f.piezo.is_none() {
         return err("no [piezo] table: a model needs the patch (`cargo sim identify` writes one)");
     }
@@ -440,13 +461,29 @@ pub fn read_model(
     Ok((arm, choice))
 }
 
-/// A parameter error of one table as `` `table.key`: what is wrong ``.
+/// A refusal of the simulator's check as `` `key`: what is wrong ``, the key the file's.
+fn sim_error(e: SimError) -> ScenarioError {
+    ScenarioError(match e {
+        SimError::Rates { name, .. } => format!("`rates.{name}`: {e}"),
+        SimError::Config(flexarm_core::ParamError::NotPositive("plant_dt")) => {
+            "`rates.plant_dt` must be a finite number > 0".into()
+        }
+        _ => e.to_string(),
+    })
+}
+
+/// A parameter error of one table as `` `table.key`: what is wrong `` (the `[arm]` table
+/// gives the modal frequencies in Hz, as `frequency_hz`).
 fn param(table: &str, e: flexarm_core::ParamError) -> ScenarioError {
     use flexarm_core::ParamError as P;
+    let key = |n: &str| match (table, n.strip_prefix("omega")) {
+        ("arm", Some(index)) => format!("frequency_hz{index}"),
+        _ => n.to_string(),
+    };
     ScenarioError(match e {
-        P::NotFinite(n) => format!("`{table}.{n}`: must be a finite number"),
-        P::NotPositive(n) => format!("`{table}.{n}`: must be a finite number > 0"),
-        P::Negative(n) => format!("`{table}.{n}`: must be >= 0"),
+        P::NotFinite(n) => format!("`{table}.{}`: must be a finite number", key(n)),
+        P::NotPositive(n) => format!("`{table}.{}`: must be a finite number > 0", key(n)),
+        P::Negative(n) => format!("`{table}.{}`: must be >= 0", key(n)),
         P::FrequenciesNotIncreasing => {
             format!("`{table}.frequency_hz`: the modal frequencies must increase")
         }
@@ -464,18 +501,33 @@ fn positive(name: &str, x: f64) -> Result<f64, ScenarioError> {
     if x.is_finite() && x > 0.0 {
         Ok(x)
     } else {
-        err(format!("`{name}` = {x} must be a finite number > 0"))
+        err(format!(
+            "`{name}` = {} must be a finite number > 0",
+            number(x)
+        ))
     }
 }
 
 /// `lo ≤ v ≤ hi` for a value the file gives, naming its key.
 fn within(key: &str, v: Option<f64>, lo: f64, hi: f64, unit: &str) -> Result<(), ScenarioError> {
     match v {
-        Some(x) if !(x.is_finite() && x >= lo && x <= hi) => err(format!(
-            "`{key}` = {x} {unit} is outside {lo:e} to {hi:e} {unit}"
-        )),
+        Some(x) if !(x.is_finite() && x >= lo && x <= hi) => err(outside(key, x, lo, hi, unit)),
         _ => Ok(()),
     }
+}
+
+/// [`within`] for each value of a list the file gives, naming its index.
+fn each_within<const N: usize>(
+    key: &str,
+    list: Option<[f64; N]>,
+    lo: f64,
+    hi: f64,
+    unit: &str,
+) -> Result<(), ScenarioError> {
+    list.iter()
+        .flatten()
+        .enumerate()
+        .try_for_each(|(i, v)| within(&format!("{key}[{i}]"), Some(*v), lo, hi, unit))
 }
 
 /// The `[arm]` table's values within their physical ranges (SI).
@@ -494,12 +546,8 @@ fn arm_ranges(a: &ArmSpec) -> Result<(), ScenarioError> {
     ] {
         within(key, v, 0.0, 1e3, "kg m^2")?;
     }
-    for v in a.frequency_hz.iter().flatten() {
-        within("arm.frequency_hz", Some(*v), 1e-2, 1e3, "Hz")?;
-    }
-    for v in a.zeta.iter().flatten() {
-        within("arm.zeta", Some(*v), 0.0, 1.0, "")?;
-    }
+    each_within("arm.frequency_hz", a.frequency_hz, 1e-2, 1e3, "Hz")?;
+    each_within("arm.zeta", a.zeta, 0.0, 1.0, "")?;
     Ok(())
 }
 
@@ -510,20 +558,13 @@ fn ranges(f: &File) -> Result<(), ScenarioError> {
     let c = &f.controller;
     within("controller.k_c", c.k_c, 0.0, 1e6, "s")?;
     within("controller.cutoff_hz", c.cutoff_hz, 1e-2, 1e6, "Hz")?;
-    for (key, list) in [("controller.kp", c.kp), ("controller.lambda", c.lambda)] {
-        for v in list.iter().flatten() {
-            within(key, Some(*v), 0.0, 1e6, "")?;
-        }
-    }
-    for v in c.d_delta.iter().flatten() {
-        within("controller.d_delta", Some(*v), 0.0, 1e6, "1/s")?;
-    }
+    each_within("controller.kp", c.kp, 0.0, 1e6, "")?;
+    each_within("controller.lambda", c.lambda, 0.0, 1e6, "")?;
+    each_within("controller.d_delta", c.d_delta, 0.0, 1e6, "1/s")?;
     let r = &f.rates;
     within("rates.motor_hz", r.motor_hz, 1e-3, 1e6, "Hz")?;
     within("rates.piezo_hz", r.piezo_hz, 1e-3, 1e7, "Hz")?;
-    for v in f.limits.tau_max.iter().flatten() {
-        within("limits.tau_max", Some(*v), 0.0, 1e4, "N m")?;
-    }
+    each_within("limits.tau_max", f.limits.tau_max, 0.0, 1e4, "N m")?;
     within("limits.v_a_max", f.limits.v_a_max, 0.0, 1e5, "V")?;
     within("limits.v_a_min", f.limits.v_a_min, -1e5, 0.0, "V")?;
     let s = &f.sensors;
@@ -550,9 +591,7 @@ fn ranges(f: &File) -> Result<(), ScenarioError> {
         ("trajectory.amplitude", t.amplitude),
         ("trajectory.angles", t.angles),
     ] {
-        for v in list.iter().flatten() {
-            within(key, Some(*v), -100.0, 100.0, "rad")?;
-        }
+        each_within(key, list, -100.0, 100.0, "rad")?;
     }
     within(
         "trajectory.start_phase",
@@ -561,9 +600,7 @@ fn ranges(f: &File) -> Result<(), ScenarioError> {
         100.0,
         "rad",
     )?;
-    for v in t.centre.iter().flatten() {
-        within("trajectory.centre", Some(*v), -100.0, 100.0, "m")?;
-    }
+    each_within("trajectory.centre", t.centre, -100.0, 100.0, "m")?;
     within("trajectory.radius", t.radius, 0.0, 100.0, "m")?;
     within("trajectory.margin", t.margin, 0.0, 10.0, "m")?;
     within("duration", f.duration, 0.0, 1e7, "s")?;
@@ -571,10 +608,39 @@ fn ranges(f: &File) -> Result<(), ScenarioError> {
     Ok(())
 }
 
+/// The poses a run on the observer holds or moves between lie within the encoder range its
+/// controller accepts (`SensorLimits`, the firmware's): outside it the controller refuses its
+/// first measurement and the run ends at t = 0.
+fn observer_range(trajectory: &JointTrajectory<f32>) -> Result<(), ScenarioError> {
+    let l = flexarm_core::supervisor::SensorLimits::<f64>::default();
+    let poses = match trajectory {
+        JointTrajectory::Hold(q) => vec![("trajectory.angles", *q)],
+        JointTrajectory::Trapezoid(t) => vec![
+            ("trajectory.start", t.start),
+            ("trajectory.amplitude", t.start + t.amplitude),
+        ],
+        _ => Vec::new(),
+    };
+    for (key, pose) in poses {
+        for j in 0..2 {
+            let (v, lo, hi) = (f64::from(pose[j]), l.theta_min[j], l.theta_max[j]);
+            if !(lo..=hi).contains(&v) {
+                return err(format!(
+                    "`{key}[{j}]`: joint {} at {} rad is outside {} to {} rad, the encoder range the observer's controller accepts",
+                    j + 1,
+                    number(v),
+                    number(lo),
+                    number(hi)
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Parses a scenario from TOML text.
 pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
-    let f: File = toml::from_str(text)
-        .map_err(|e| ScenarioError(flexarm_beam::config::toml_error(text, &e)))?;
+    let f: File = toml::from_str(text).map_err(|e| ScenarioError(de_error(text, &e)))?;
     let mut cfg = SimConfig::default();
 
     ranges(&f)?;
@@ -642,9 +708,7 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
         motor_hz: r.motor_hz.unwrap_or(d.motor_hz),
         piezo_hz: r.piezo_hz.unwrap_or(d.piezo_hz),
     };
-    cfg.rates
-        .divisors()
-        .map_err(|e| ScenarioError(format!("[rates]: {e}")))?;
+    cfg.rates.divisors().map_err(sim_error)?;
     if let Some(t) = f.limits.tau_max {
         cfg.limits.tau_max = Vector2::new(t[0] as f32, t[1] as f32);
     }
@@ -800,6 +864,9 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             JointTrajectory::Hold(held)
         }
     };
+    if cfg.state == StateSource::Observer {
+        observer_range(&trajectory)?;
+    }
     if let Some(p) = &f.plant
         && let Some(t) = p.truth()?
     {
@@ -811,8 +878,8 @@ pub fn parse(text: &str) -> Result<Scenario, ScenarioError> {
             (cfg.arm, cfg.patch) = given;
         }
     }
-    cfg.validate(&trajectory)
-        .map_err(|e| ScenarioError(e.to_string()))?;
+    cfg.validate(&trajectory).map_err(sim_error)?;
+    crate::plant::check_step(&cfg, trajectory.sample(0.0).q.cast()).map_err(sim_error)?;
     let name = f.name.unwrap_or_else(|| "scenario".into());
     crate::outdir::check_file_name(&name)
         .map_err(|e| ScenarioError(format!("`name`: {e}: it names the output files")))?;

@@ -1,27 +1,39 @@
 //! The multi-rate closed loop: the plant integrated at `plant_dt`, the motor and piezo loops
-//! sampled at their own rates with zero-order hold, exactly as the firmware runs them.
+//! sampled at their own rates with zero-order hold.
 //!
 //! Two ways to feed the motor law:
-//! - [`StateSource::Full`]: the true state `(q, q̇)`, as the paper assumes;
-//! - [`StateSource::Observer`]: the firmware's complete controller (`flexarm_core::Controller`:
-//!   checks, observer, latch) fed by modelled sensors: quantized encoders and a quantized, noisy
-//!   film ADC ([`Sensors`]).
+//! - [`StateSource::Full`]: the true state `(q, q̇)`, as the paper assumes: the paper's laws
+//!   alone (`MotorController`, `PiezoLaw`), no observer, no checks, no drive: not a board;
+//! - [`StateSource::Observer`]: the firmware, exactly as a board runs it: the host's rig
+//!   ([`crate::rig`]) runs the machine's periods (`flexarm_machine::period`: the controller's
+//!   checks, observer and latch, the drive's motion checks, derating and controlled stops) from
+//!   the run's [`BoardConfig`] ([`SimConfig::board_config`]) on the plant through modelled sensors
+//!   ([`crate::rig::PlantBoard`]: quantized encoders, a quantized, noisy film ADC, [`Sensors`]).
+//!   The trajectory runs as the drive's move (`Drive::follow`: a study's trajectory, not checked
+//!   against the move limits).
 //!
 //! The indices use the true state, whatever the controller sees.
 
+use flexarm_core::control::cancel::{CancelGains, FeedthroughCancel};
+use flexarm_core::control::irc::{Irc, IrcGains};
 use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+use flexarm_core::control::ppf::{Ppf, PpfGains};
 use flexarm_core::controller::Controller;
 use flexarm_core::indices::{L2Norm, TailMean};
 use flexarm_core::model::Model;
 use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
-use flexarm_core::observer::{Measurement, NoiseModel, Observer, design, film_map};
+use flexarm_core::observer::{NoiseModel, design, film_map};
 use flexarm_core::params::{ArmParams, Gains, Limits, ParamError};
-use flexarm_core::supervisor::SensorLimits;
+use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::{Circle, JointTrajectory, Trapezoid};
 use flexarm_core::{Fault, Vector2, Vector4};
+use flexarm_link::msg::{Board, Param, Reply};
+use flexarm_machine::BoardConfig;
+use flexarm_machine::config::GainTable;
 
 use crate::plant::{Diverged, ModelPlant, Plant, State};
+use crate::rig::{PlantBoard, Rig};
 use crate::truth_plant::{self, TruthSpec};
 
 /// Loop rates and the plant step.
@@ -105,8 +117,13 @@ pub struct Sensors {
     pub adc_range: f64,
     /// White noise on the film voltage, standard deviation [V].
     pub film_noise: f64,
-    /// Every measurement reaches the controller one period late.
+    /// Every measurement reaches the controller one period late (the motor loop's: the piezo
+    /// loop reads the film when it runs, unless `piezo_delay`).
     pub delay: bool,
+    /// The film reaches the piezo loop one piezo period late (the spillover study's
+    /// "realistic board"; off in [`Sensors::realistic`], whose published runs had it off; the
+    /// full-state loop only: on the rig the board reads its film as the firmware does).
+    pub piezo_delay: bool,
     /// Piezo amplifier slew-rate limit [V/s]; `None` = unlimited.
     pub piezo_slew: Option<f64>,
     /// Seed of the noise generator (runs are reproducible).
@@ -122,6 +139,7 @@ impl Default for Sensors {
             adc_range: 10.0,
             film_noise: 0.0,
             delay: false,
+            piezo_delay: false,
             piezo_slew: None,
             seed: 1,
         }
@@ -138,6 +156,7 @@ impl Sensors {
             adc_range: 10.0,
             film_noise: 5e-3,
             delay: true,
+            piezo_delay: false,
             piezo_slew: Some(5e4),
             seed: 1,
         }
@@ -154,7 +173,7 @@ impl Sensors {
         }
     }
 
-    /// The film ADC's reading of the voltage `v` [V], its noise drawn from `rng`.
+    /// The film ADC's reading of the voltage `v` [V] (with the noise of `rng`).
     pub fn film(&self, v: f64, rng: &mut Rng) -> f64 {
         let v = v + self.film_noise * rng.normal();
         match self.adc_bits {
@@ -219,6 +238,9 @@ pub struct SimConfig {
     pub patch: PiezoPatch<f64>,
     /// Piezo loop gains; `None` leaves the actuator at 0 V.
     pub piezo: Option<PiezoGains<f32>>,
+    /// A piezo law of issue 35 run instead of the paper's (`piezo`), full state only: the
+    /// spillover study's time-domain checks (the controller's `piezo_step` runs `PiezoLaw`).
+    pub piezo_law: Option<PiezoLawChoice>,
     /// Rates.
     pub rates: Rates,
     /// Where the law takes the state from.
@@ -232,6 +254,11 @@ pub struct SimConfig {
     pub duration: f64,
     /// Window of Eq. 38 [s] at the end of the run.
     pub tail_window: f64,
+    /// The board configuration the firmware's controller runs with ([`StateSource::Observer`]):
+    /// `None` builds it from this run's arm, patch, law, gains, piezo gains, limits and rates
+    /// ([`SimConfig::board_config`]); a board's own (a recording's, a firmware's generated
+    /// one) runs that board's numbers, the rest of this configuration describing the plant.
+    pub machine: Option<BoardConfig>,
 }
 
 impl Default for SimConfig {
@@ -245,12 +272,14 @@ impl Default for SimConfig {
             law: MotorLaw::Tracking,
             patch: PiezoPatch::paper(),
             piezo: None,
+            piezo_law: None,
             rates: Rates::default(),
             state: StateSource::Full,
             sensors: Sensors::default(),
             observer_noise: NoiseModel::default(),
             duration: 5.0,
             tail_window: 3.0,
+            machine: None,
         }
     }
 }
@@ -374,92 +403,170 @@ pub struct Summary {
     pub motion_streaks: (u32, u32),
 }
 
-/// The motor-side controller of a run (one per run: its size does not matter).
-#[allow(clippy::large_enum_variant)]
-enum Loop {
-    Full {
-        motor: MotorController<f32>,
-        piezo: Option<PiezoLaw<f32>>,
-    },
-    Observer(Box<Controller<f32>>),
+/// A piezo law of issue 35 with its gains ([`SimConfig::piezo_law`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PiezoLawChoice {
+    /// Positive position feedback.
+    Ppf(PpfGains<f32>),
+    /// Integral resonant control.
+    Irc(IrcGains<f32>),
+    /// Rate feedback with the identified feedthrough subtracted.
+    Cancel(CancelGains<f32>),
 }
 
-fn build(
-    cfg: &SimConfig,
-    traj: &JointTrajectory<f32>,
-    motor_period: f64,
-    piezo_period: f64,
-) -> Result<Loop, SimError> {
-    let motor = MotorController {
-        model: Model::new(cfg.arm.cast::<f32>()),
-        gains: cfg.gains,
-        limits: cfg.limits,
-        law: cfg.law,
-    };
-    let piezo_law = |g: PiezoGains<f32>| {
-        PiezoLaw::with_window(
-            &g,
-            piezo_period as f32,
-            cfg.limits.v_a_min,
-            cfg.limits.v_a_max,
-        )
-    };
-    Ok(match cfg.state {
-        StateSource::Full => Loop::Full {
-            motor,
-            piezo: cfg.piezo.map(piezo_law),
-        },
-        StateSource::Observer => {
-            let patch32 = cfg.patch.to_f32();
-            let th0 = traj.sample(0.0).q;
-            let c_f = film_map(&cfg.patch);
-            let gain = design(
-                &Model::new(cfg.arm),
-                &c_f,
-                &Vector2::new(0.0, std::f64::consts::FRAC_PI_4),
-                motor_period,
-                &cfg.observer_noise,
-            )
-            .map_err(|_| SimError::ObserverDesign)?;
-            // The controller always has a valid piezo law; with the loop off it is never stepped.
-            let c = Controller::new(
-                motor,
-                piezo_law(cfg.piezo.unwrap_or_default()),
-                patch32,
-                Observer::new(
-                    gain.cast::<f32>(),
-                    film_map(&patch32),
-                    motor_period as f32,
-                    th0,
-                ),
-                SensorLimits::default(),
-                *traj,
-                motor_period as f32,
-                3,
-            );
-            if let Some(fault) = c.fault() {
-                return Err(SimError::Fault { fault, t: 0.0 });
+/// The full-state loop's piezo law.
+enum FullPiezo {
+    Rate(PiezoLaw<f32>),
+    Ppf(Ppf<f32>),
+    Irc(Irc<f32>),
+    Cancel(FeedthroughCancel<f32>),
+}
+
+impl FullPiezo {
+    fn new(c: &PiezoLawChoice, period: f32, v_min: f32, v_max: f32) -> Result<Self, SimError> {
+        let (law, ok) = match c {
+            PiezoLawChoice::Ppf(g) => {
+                let l = Ppf::new(g, period, v_min, v_max);
+                (Self::Ppf(l), l.is_valid())
             }
-            Loop::Observer(Box::new(c))
+            PiezoLawChoice::Irc(g) => {
+                let l = Irc::new(g, period, v_min, v_max);
+                (Self::Irc(l), l.is_valid())
+            }
+            PiezoLawChoice::Cancel(g) => {
+                let l = FeedthroughCancel::new(g, period, v_min, v_max);
+                (Self::Cancel(l), l.is_valid())
+            }
+        };
+        if ok {
+            Ok(law)
+        } else {
+            Err(SimError::Input {
+                key: "piezo_law",
+                msg: format!("{c:?} gives no valid law at the piezo period {period} s"),
+            })
         }
-    })
+    }
+
+    fn step(&mut self, v_f: f32) -> f32 {
+        match self {
+            Self::Rate(l) => l.step(v_f),
+            Self::Ppf(l) => l.step(v_f),
+            Self::Irc(l) => l.step(v_f),
+            Self::Cancel(l) => l.step(v_f),
+        }
+    }
 }
 
 impl SimConfig {
-    /// The controller a board would run for this configuration and trajectory: the
-    /// observer-based [`Controller`] at the configuration's rates, whatever `state` says (the
-    /// drive's tests build a [`flexarm_core::drive::Drive`] around it).
-    pub fn controller(&self, traj: &JointTrajectory<f32>) -> Result<Controller<f32>, SimError> {
-        let cfg = SimConfig {
-            state: StateSource::Observer,
-            ..*self
-        };
-        let (motor_div, piezo_div) = cfg.rates.divisors()?;
-        let dt = cfg.rates.plant_dt;
-        match build(&cfg, traj, dt * motor_div as f64, dt * piezo_div as f64)? {
-            Loop::Observer(c) => Ok(*c),
-            Loop::Full { .. } => Err(SimError::ObserverDesign),
+    /// The board configuration the firmware's controller runs with in this run: [`Self::machine`]
+    /// when given (its rates must be this run's), else a board at this run's rates
+    /// (`BoardConfig::for_board` for the hardware board) with this run's controller: its arm and
+    /// patch (in `f32`), law, gains, piezo gains (the default ones when the loop is off:
+    /// [`Self::run_board`] turns it off), limits, the motion checks of its motor rate, the
+    /// observer gain designed for them ([`Self::observer_gain`]), and no link watchdog (no host
+    /// watches a study's run).
+    pub fn board_config(&self) -> Result<BoardConfig, SimError> {
+        let (motor_div, piezo_div) = self.rates.divisors()?;
+        if motor_div % piezo_div != 0 {
+            return Err(SimError::Input {
+                key: "rates.piezo_hz",
+                msg: format!(
+                    "{} Hz is not a whole multiple of the motor loop's {} Hz: a board runs a whole number of piezo periods per motor period",
+                    self.rates.piezo_hz, self.rates.motor_hz
+                ),
+            });
         }
+        let divider = (motor_div / piezo_div) as u32;
+        let piezo_hz = self.rates.piezo_hz.round() as u32;
+        if let Some(m) = self.machine {
+            if m.piezo_hz != piezo_hz || m.motor_divider != divider {
+                return Err(SimError::Input {
+                    key: "rates",
+                    msg: format!(
+                        "the board runs its loops at {} and {} Hz, not {} and {} Hz",
+                        m.piezo_hz,
+                        m.motor_hz(),
+                        self.rates.piezo_hz,
+                        self.rates.motor_hz
+                    ),
+                });
+            }
+            return Ok(m);
+        }
+        let motor_hz = self.rates.motor_hz.round() as u32;
+        let piezo = self.piezo.unwrap_or_default();
+        let mut c = BoardConfig::for_board(
+            Board::Hardware,
+            self.arm.cast::<f32>(),
+            self.patch.to_f32(),
+            piezo.k_c,
+            self.observer_gain(self.rates.plant_dt * motor_div as f64)?,
+        );
+        c.law = self.law;
+        c.gains = self.gains;
+        c.piezo = piezo;
+        c.limits = self.limits;
+        c.motion = MotionLimits::default_for(motor_hz);
+        c.piezo_hz = piezo_hz;
+        c.motor_divider = divider;
+        c.print_every = (motor_hz / 10).max(1);
+        c.amplifier_settle = motor_hz / 100;
+        // No host watches a study's run: the link watchdog is off.
+        c.link_timeout_s = 0;
+        Ok(c)
+    }
+
+    /// The observer gain for this run's arm and patch at the motor period `motor_period` [s]:
+    /// the steady-state Kalman gain for [`Self::observer_noise`] at rest at `(0, π/4)` rad, as
+    /// `cargo sim firmware-params` designs the firmware's.
+    pub fn observer_gain(&self, motor_period: f64) -> Result<GainTable, SimError> {
+        let gain = design(
+            &Model::new(self.arm),
+            &film_map(&self.patch),
+            &Vector2::new(0.0, std::f64::consts::FRAC_PI_4),
+            motor_period,
+            &self.observer_noise,
+        )
+        .map_err(|_| SimError::ObserverDesign)?;
+        Ok(core::array::from_fn(|i| {
+            core::array::from_fn(|j| gain[(i, j)] as f32)
+        }))
+    }
+
+    /// The controller a board would run for this configuration and trajectory: the
+    /// observer-based [`Controller`] of [`Self::board_config`], holding `traj`, whatever `state`
+    /// says (the drive's tests build a [`flexarm_core::drive::Drive`] around it).
+    pub fn controller(&self, traj: &JointTrajectory<f32>) -> Result<Controller<f32>, SimError> {
+        Ok(self.board_config()?.controller(*traj))
+    }
+
+    /// The host's rig of this run's board on its plant, at rest at `theta` [rad], booted
+    /// ([`Rig::new`]), with the piezo loop off when [`Self::piezo`] is `None` (its gain set to
+    /// 0 as the link's `set kc 0` does), disarmed.
+    pub fn run_board(&self, theta: Vector2<f64>) -> Result<Rig<PlantBoard>, SimError> {
+        let bc = self.board_config()?;
+        let (_, piezo_div) = self.rates.divisors()?;
+        let board = PlantBoard::new(
+            self.plant_at(theta)?,
+            self.sensors,
+            self.rates.plant_dt,
+            piezo_div,
+        );
+        let mut rig = Rig::new(bc, board, Ticks(0));
+        if let Some(fault) = rig.control.ctrl.fault() {
+            return Err(SimError::Fault { fault, t: 0.0 });
+        }
+        if self.piezo.is_none() && self.machine.is_none() {
+            let r = rig.answer(flexarm_link::Command::Set(Param::Kc, 0.0));
+            if r != Reply::Done {
+                return Err(SimError::Input {
+                    key: "controller.k_c",
+                    msg: format!("the piezo loop could not be turned off: {r:?}"),
+                });
+            }
+        }
+        Ok(rig)
     }
 }
 
@@ -825,61 +932,167 @@ fn run(
             msg: "no segment to run".into(),
         });
     };
-    let traj = &first;
-    // The segment at `t` and the time into it.
-    let at = |t: f64| {
-        let i = segments
-            .partition_point(|(start, _)| *start <= t)
-            .saturating_sub(1);
-        let (start, seg) = segments[i];
-        (i, seg, t - start)
+    cfg.validate(&first)?;
+    if cfg.state == StateSource::Observer && cfg.piezo_law.is_some() {
+        return Err(SimError::Input {
+            key: "piezo_law",
+            msg: "runs with the full state only (the board's controller runs the paper's law)"
+                .into(),
+        });
+    }
+    match cfg.state {
+        StateSource::Full => run_paper(cfg, segments, record),
+        StateSource::Observer => run_firmware(cfg, segments, record, bias),
+    }
+}
+
+/// The segment of `segments` at `t` [s], and the time into it.
+fn segment_at(
+    segments: &[(f64, JointTrajectory<f32>)],
+    t: f64,
+) -> (usize, JointTrajectory<f32>, f64) {
+    let i = segments
+        .partition_point(|(start, _)| *start <= t)
+        .saturating_sub(1);
+    let (start, seg) = segments[i];
+    (i, seg, t - start)
+}
+
+/// [`StateSource::Observer`]: the firmware on the host's rig ([`SimConfig::run_board`]), the
+/// segments run as the drive's moves, each from the motor period its start falls in; `bias`
+/// sets the link's piezo bias before each piezo period. The time of the run (the samples', the
+/// segments', the bias's) is the motor periods': the first motor period samples at 0.
+fn run_firmware(
+    cfg: &SimConfig,
+    segments: &[(f64, JointTrajectory<f32>)],
+    record: bool,
+    bias: Option<&dyn Fn(f64) -> f64>,
+) -> Result<(Summary, Vec<Sample>), SimError> {
+    let (_, first) = segments[0];
+    let mut rig = cfg.run_board(first.sample(0.0).q.cast::<f64>())?;
+    let motor_dt = 1.0 / f64::from(rig.cfg.motor_hz());
+    let refused = |why| SimError::Input {
+        key: "trajectory",
+        msg: format!("the drive refused the run: {why:?}"),
     };
+    // The plant starts at rest at the trajectory's start, and so does the estimate (the
+    // study's convention: a board resets its observer at its encoders' reading instead).
+    rig.control.ctrl.reset_observer(first.sample(0.0).q);
+    rig.arm().map_err(refused)?;
+    rig.follow(first, 0.0).map_err(refused)?;
     let mut current = 0;
-    cfg.validate(traj)?;
+    let mut sum = Summary::default();
+    let mut indices = Indices::new(cfg.duration, cfg.tail_window);
+    let mut trace = Vec::new();
+    let mut monitor = MotionMonitor::<f32>::new();
+    // The run's time is the motor periods': the motor period `k` samples at `k T_m`, with the
+    // last of its `N` piezo periods (`PlantBoard`), the one before it at `k T_m − T_p`, ...
+    let periods = (cfg.duration / motor_dt).round() as u64;
+    let n = rig.cfg.motor_divider;
+    let piezo_dt = motor_dt / f64::from(n);
+    for k in 0..periods {
+        let t = k as f64 * motor_dt;
+        let (i, seg, local) = segment_at(segments, t);
+        if i != current {
+            current = i;
+            rig.follow(seg, local as f32).map_err(refused)?;
+        }
+        let p = rig.period_with(n, |c, i| {
+            if let Some(b) = bias {
+                c.piezo_bias = b(t - f64::from(n - 1 - i) * piezo_dt) as f32;
+            }
+        });
+        if rig.board.diverged.is_some() {
+            return Err(SimError::Plant { t });
+        }
+        if let Some(fault) = p.fault {
+            return Err(SimError::Fault { fault, t });
+        }
+        let ctrl = &rig.control.ctrl;
+        let theta_d = p.q.xy() - p.error;
+        let sample = MotionSample {
+            theta: p.y.theta,
+            theta_d,
+            speed: ctrl.estimate().1.xy(),
+            tau: p.command.tau,
+        };
+        watch(
+            &mut sum,
+            &mut monitor,
+            &rig.cfg.motion,
+            &sample,
+            t,
+            motor_dt,
+        );
+        let reference = ctrl.trajectory.sample(rig.drive.time(p.tick)).q;
+        let sample = Sample {
+            t,
+            x: rig.board.state(),
+            q_d: reference.cast::<f64>(),
+            delta_seen: Vector2::new(f64::from(p.q.z), f64::from(p.q.w)),
+            tau: p.command.tau.cast::<f64>(),
+            v_a: rig.board.v_a(),
+            v_f: rig.board.v_f(),
+            tip: rig.board.plant().tip(),
+        };
+        indices.add(&mut sum, &sample, t, motor_dt);
+        if record {
+            trace.push(sample);
+        }
+    }
+    indices.finish(&mut sum);
+    Ok((sum, trace))
+}
+
+/// [`StateSource::Full`]: the paper's laws on the true state, the piezo law on the measured
+/// film, at their rates; no observer, no checks, no drive (the paper's assumption, not a
+/// board).
+fn run_paper(
+    cfg: &SimConfig,
+    segments: &[(f64, JointTrajectory<f32>)],
+    record: bool,
+) -> Result<(Summary, Vec<Sample>), SimError> {
+    let (_, first) = segments[0];
     let (motor_div, piezo_div) = cfg.rates.divisors()?;
     let dt = cfg.rates.plant_dt;
     let (motor_dt, piezo_dt) = (dt * motor_div as f64, dt * piezo_div as f64);
-    let mut ctrl = build(cfg, traj, motor_dt, piezo_dt)?;
+    let motor = MotorController {
+        model: Model::new(cfg.arm.cast::<f32>()),
+        gains: cfg.gains,
+        limits: cfg.limits,
+        law: cfg.law,
+    };
+    let (v_min, v_max) = (cfg.limits.v_a_min, cfg.limits.v_a_max);
+    let mut piezo = match &cfg.piezo_law {
+        Some(c) => Some(FullPiezo::new(c, piezo_dt as f32, v_min, v_max)?),
+        None => cfg
+            .piezo
+            .map(|g| FullPiezo::Rate(PiezoLaw::with_window(&g, piezo_dt as f32, v_min, v_max))),
+    };
     let mut rng = Rng::new(cfg.sensors.seed);
-
-    let th0 = traj.sample(0.0).q.cast::<f64>();
-    let mut plant = cfg.plant_at(th0)?;
+    let mut plant = cfg.plant_at(first.sample(0.0).q.cast::<f64>())?;
     let steps = (cfg.duration / dt).round() as u64;
-
     let mut sum = Summary::default();
     let mut indices = Indices::new(cfg.duration, cfg.tail_window);
     let mut trace = Vec::new();
     let (mut tau, mut v_a, mut v_f) = (Vector2::<f64>::zeros(), 0.0_f64, 0.0_f64);
-    let mut cmd_prev = 0.0_f64;
     // Measurements held back one period when `sensors.delay`.
     let mut held: Option<(State<f64>, f64)> = None;
     let motion = MotionLimits::<f32>::default_for(cfg.rates.motor_hz.round() as u32);
     let mut monitor = MotionMonitor::<f32>::new();
-
+    let mut film_held: Option<f64> = None;
     for k in 0..steps {
         let t = k as f64 * dt;
         if k % piezo_div == 0 {
             v_f = cfg.sensors.film(plant.film(), &mut rng);
-            let cmd = match &mut ctrl {
-                Loop::Full { piezo, .. } => piezo
-                    .as_mut()
-                    .map_or(0.0, |p| f64::from(p.step(v_f as f32))),
-                // With the piezo loop off its task does not run: the controller's command stays
-                // 0 V, which is what the plant gets and what its observer predicts with.
-                Loop::Observer(c) if cfg.piezo.is_some() => f64::from(c.piezo_step(v_f as f32)),
-                Loop::Observer(_) => 0.0,
+            // The sample the piezo law reads: this one, or the last period's.
+            let v_read = match (cfg.sensors.piezo_delay, film_held.replace(v_f)) {
+                (true, Some(old)) => old,
+                _ => v_f,
             };
-            // The bias on top: with the loop off the controller's command persists, so the
-            // step adds the change of the bias.
-            let cmd = match (&mut ctrl, bias) {
-                (Loop::Observer(c), Some(b)) => {
-                    let b = b(t);
-                    let step = if cfg.piezo.is_some() { b } else { b - cmd_prev };
-                    f64::from(c.bias_piezo(step as f32))
-                }
-                _ => cmd,
-            };
-            cmd_prev = cmd;
+            let cmd = piezo
+                .as_mut()
+                .map_or(0.0, |p| f64::from(p.step(v_read as f32)));
             v_a = match cfg.sensors.piezo_slew {
                 Some(rate) => v_a + (cmd - v_a).clamp(-rate * piezo_dt, rate * piezo_dt),
                 None => cmd,
@@ -887,68 +1100,34 @@ fn run(
         }
         if k % motor_div == 0 {
             let x = plant.state();
-            let (i, seg, local) = at(t);
-            if i != current {
-                current = i;
-                if let Loop::Observer(c) = &mut ctrl {
-                    c.trajectory = seg;
-                }
-            }
+            let (_, seg, local) = segment_at(segments, t);
             let target = seg.sample(local as f32);
-            let (seen, seen_v_f) = if cfg.sensors.delay {
-                held.replace((x, v_f)).unwrap_or((x, v_f))
+            let seen = if cfg.sensors.delay {
+                held.replace((x, v_f)).unwrap_or((x, v_f)).0
             } else {
-                (x, v_f)
+                x
             };
-            let (new_tau, delta_seen) = match &mut ctrl {
-                Loop::Full { motor, .. } => {
-                    let out = motor
-                        .step(
-                            local as f32,
-                            &seen.q.cast::<f32>(),
-                            &seen.qd.cast::<f32>(),
-                            &target,
-                        )
-                        .map_err(|fault| SimError::Fault { fault, t })?;
-                    let sample = MotionSample {
-                        theta: Vector2::new(seen.q.x, seen.q.y).cast::<f32>(),
-                        theta_d: target.q,
-                        speed: Vector2::new(seen.qd.x, seen.qd.y).cast::<f32>(),
-                        tau: out.tau,
-                    };
-                    watch(&mut sum, &mut monitor, &motion, &sample, t, motor_dt);
-                    (out.tau.cast::<f64>(), Vector2::new(seen.q.z, seen.q.w))
-                }
-                Loop::Observer(c) => {
-                    let s = &cfg.sensors;
-                    let y = Measurement {
-                        theta: Vector2::new(s.angle(seen.q.x) as f32, s.angle(seen.q.y) as f32),
-                        v_f: seen_v_f as f32,
-                    };
-                    let rep = c.motor_step(local as f32, Some(&y));
-                    if let Some(fault) = c.fault() {
-                        return Err(SimError::Fault { fault, t });
-                    }
-                    let (q_hat, qd_hat) = c.estimate();
-                    let sample = MotionSample {
-                        theta: y.theta,
-                        theta_d: target.q,
-                        speed: Vector2::new(qd_hat.x, qd_hat.y),
-                        tau: rep.command.tau,
-                    };
-                    watch(&mut sum, &mut monitor, &motion, &sample, t, motor_dt);
-                    (
-                        rep.command.tau.cast::<f64>(),
-                        Vector2::new(f64::from(q_hat.z), f64::from(q_hat.w)),
-                    )
-                }
+            let out = motor
+                .step(
+                    local as f32,
+                    &seen.q.cast::<f32>(),
+                    &seen.qd.cast::<f32>(),
+                    &target,
+                )
+                .map_err(|fault| SimError::Fault { fault, t })?;
+            let sample = MotionSample {
+                theta: Vector2::new(seen.q.x, seen.q.y).cast::<f32>(),
+                theta_d: target.q,
+                speed: Vector2::new(seen.qd.x, seen.qd.y).cast::<f32>(),
+                tau: out.tau,
             };
-            tau = new_tau;
+            watch(&mut sum, &mut monitor, &motion, &sample, t, motor_dt);
+            tau = out.tau.cast::<f64>();
             let sample = Sample {
                 t,
                 x,
                 q_d: target.q.cast::<f64>(),
-                delta_seen,
+                delta_seen: Vector2::new(seen.q.z, seen.q.w),
                 tau,
                 v_a,
                 v_f,

@@ -11,15 +11,20 @@
 //! ## The loop
 //! Plant, joints held, unit modal mass: `ẋ = A x + B V_a`, `x = (δ, δ̇)`,
 //! `A = [[0, I], [−Ω², −2ζΩ]]`, `B = (0, k_a Δφ')`; film `V_f = k_s Δφ'ᵀ δ`. With an amplifier
-//! of bandwidth `ω_a` the patch sees `V̇_p = ω_a (V_a − V_p)`, a state appended to `x`. Discretized exactly
-//! for a zero-order hold over the piezo period `T` (`e^{AT}` of the augmented matrix). The law is
-//! the core's `PiezoLaw` without its saturation: `u_k = a u_{k−1} + b (V_{f,k} − V_{f,k−1})`,
-//! `a = (2 − ω_c T)/(2 + ω_c T)`, `b = −k_c 2ω_c/(2 + ω_c T)`, held for the next period (and read
-//! one period late with `delay`). The closed loop is linear in the state
-//! `(x_k, V_{f,k−1}, u_{k−1} [, V_{f,k−1} held])`; it is stable when every eigenvalue of its
-//! matrix lies inside the unit circle.
+//! of bandwidth `ω_a` the patch sees `V̇_p = ω_a (V_a − V_p)`, a state appended to `x`; the film
+//! also reads the patch voltage directly, `V_f = k_s Δφ'ᵀ δ + β F V_p` (the feedthrough,
+//! `ModalLink::feedthrough`). Discretized exactly for a zero-order hold over the piezo period `T`
+//! (`e^{AT}` of the augmented matrix). A law is linear without its saturation ([`LinearLaw`]):
+//! the core's `PiezoLaw` is `u_k = a u_{k−1} + b (V_{f,k} − V_{f,k−1})`,
+//! `a = (2 − ω_c T)/(2 + ω_c T)`, `b = −k_c 2ω_c/(2 + ω_c T)`; the laws of issue 35 give their
+//! own form (`linear()`). The command is held for the next period, the film read one period
+//! late with `delay`. The closed loop is linear in the state ([`closed_loop_with`]); it is
+//! stable when every eigenvalue of its matrix lies inside the unit circle.
 
-use nalgebra::DMatrix;
+use flexarm_core::control::linear::StateSpace;
+use nalgebra::{DMatrix, DVector};
+
+use crate::eigen::EigenError;
 
 /// The piezo loop as the firmware runs it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,6 +56,8 @@ pub struct ModalLink {
     pub k_a: f64,
     /// `k_s` [V/rad].
     pub k_s: f64,
+    /// The film's direct response to the patch voltage `β F` [V/V] (`TruthSpec::film_bond`).
+    pub feedthrough: f64,
 }
 
 impl ModalLink {
@@ -68,6 +75,7 @@ impl ModalLink {
             slope_diff: c.slope_diff,
             k_a: c.k_a,
             k_s: c.k_s,
+            feedthrough: c.feedthrough,
         })
     }
 
@@ -82,26 +90,108 @@ impl ModalLink {
     }
 }
 
-/// The closed loop's matrix (module docs) for the gain `k_c`.
+/// A sampled law without saturation, `z_{k+1} = A z_k + B y_k`, `u_k = C z_k + D y_k` (`y` the
+/// film sample it reads): a core law's `linear()` ([`LinearLaw::from`]) or the rate law
+/// ([`LinearLaw::rate`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearLaw {
+    /// `A`.
+    pub a: DMatrix<f64>,
+    /// `B`.
+    pub b: DVector<f64>,
+    /// `C`.
+    pub c: DVector<f64>,
+    /// `D`.
+    pub d: f64,
+}
+
+impl<const S: usize> From<&StateSpace<f64, S>> for LinearLaw {
+    fn from(ss: &StateSpace<f64, S>) -> Self {
+        Self {
+            a: DMatrix::from_fn(S, S, |i, j| ss.a[(i, j)]),
+            b: DVector::from_fn(S, |i, _| ss.b[i]),
+            c: DVector::from_fn(S, |i, _| ss.c[i]),
+            d: ss.d,
+        }
+    }
+}
+
+impl LinearLaw {
+    /// The core's `PiezoLaw` (Eq. 17) without its saturation: `u_k = a u_{k−1} + b (y_k −
+    /// y_{k−1})`, states `(u_{k−1}, y_{k−1})` (module docs).
+    pub fn rate(k_c: f64, cutoff_hz: f64, period: f64) -> Self {
+        let wc = std::f64::consts::TAU * cutoff_hz;
+        let a = (2.0 - wc * period) / (2.0 + wc * period);
+        let b = -k_c * 2.0 * wc / (2.0 + wc * period);
+        Self {
+            a: DMatrix::from_row_slice(2, 2, &[a, -b, 0.0, 0.0]),
+            b: DVector::from_column_slice(&[b, 1.0]),
+            c: DVector::from_column_slice(&[a, -b]),
+            d: b,
+        }
+    }
+}
+
+/// Where a law runs: its period, whether the film sample is one period old, the amplifier.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Board {
+    /// Loop period `T` [s].
+    pub period: f64,
+    /// The film sample is one period old.
+    pub delay: bool,
+    /// Bandwidth of the piezo amplifier [Hz]; `None` for an ideal one.
+    pub amplifier_hz: Option<f64>,
+}
+
+impl PiezoLoop {
+    /// The board this loop runs on.
+    pub fn board(&self) -> Board {
+        Board {
+            period: self.period,
+            delay: self.delay,
+            amplifier_hz: self.amplifier_hz,
+        }
+    }
+}
+
+/// The closed loop's matrix (module docs) for the rate law of `law`.
 pub fn closed_loop(link: &ModalLink, law: &PiezoLoop) -> DMatrix<f64> {
+    closed_loop_with(
+        link,
+        &law.board(),
+        &LinearLaw::rate(law.k_c, law.cutoff_hz, law.period),
+        1.0,
+    )
+}
+
+/// The closed loop of the linear `law` on `board`, the actuator path's gain multiplied by
+/// `gain` (the law's own copy of its command is not: what an amplifier's or a patch's gain
+/// error does). The state is `(x_k, u_{k−1}, z_k [, y_{k−1}])`: the plant's (modes, and the
+/// patch voltage behind a real amplifier), the command applied during the last period, the
+/// law's, and the film sample held back one period with `board.delay`. The film reads
+/// `y_k = k_s Δφ'ᵀδ_k + β F V_p` with `V_p` the amplifier's state, or `u_{k−1}` behind an ideal
+/// amplifier (the hold of the last period).
+pub fn closed_loop_with(
+    link: &ModalLink,
+    board: &Board,
+    law: &LinearLaw,
+    gain: f64,
+) -> DMatrix<f64> {
     let n = link.omega.len();
-    let t = law.period;
+    let t = board.period;
+    let amp = board.amplifier_hz.is_some();
     // Continuous plant states: δ, δ̇ and, with a real amplifier, the patch voltage.
-    let nx = 2 * n + usize::from(law.amplifier_hz.is_some());
+    let nx = 2 * n + usize::from(amp);
     // Augmented continuous system [[A, B], [0, 0]] for the zero-order hold of the command.
     let mut aug = DMatrix::<f64>::zeros(nx + 1, nx + 1);
-    let drive = if law.amplifier_hz.is_some() {
-        2 * n
-    } else {
-        nx
-    };
+    let drive = if amp { 2 * n } else { nx };
     for j in 0..n {
         aug[(j, n + j)] = 1.0;
         aug[(n + j, j)] = -link.omega[j] * link.omega[j];
         aug[(n + j, n + j)] = -2.0 * link.zeta[j] * link.omega[j];
         aug[(n + j, drive)] = link.k_a * link.slope_diff[j];
     }
-    if let Some(f) = law.amplifier_hz {
+    if let Some(f) = board.amplifier_hz {
         let wa = std::f64::consts::TAU * f;
         aug[(2 * n, 2 * n)] = -wa;
         aug[(2 * n, nx)] = wa;
@@ -109,89 +199,97 @@ pub fn closed_loop(link: &ModalLink, law: &PiezoLoop) -> DMatrix<f64> {
     let e = (aug * t).exp();
     let ad = e.view((0, 0), (nx, nx)).into_owned();
     let bd = e.view((0, nx), (nx, 1)).into_owned();
-    let wc = std::f64::consts::TAU * law.cutoff_hz;
-    let a = (2.0 - wc * t) / (2.0 + wc * t);
-    let b = -law.k_c * 2.0 * wc / (2.0 + wc * t);
-    // c: the film voltage from x (δ entries only).
-    let mut c = DMatrix::<f64>::zeros(1, nx);
+    let nz = law.a.nrows();
+    let (iu, iz, ih) = (nx, nx + 1, nx + 1 + nz);
+    let m = ih + usize::from(board.delay);
+    // The film sample y_k as a row over the state.
+    let mut y = DVector::<f64>::zeros(m);
     for j in 0..n {
-        c[(0, j)] = link.k_s * link.slope_diff[j];
+        y[j] = link.k_s * link.slope_diff[j];
     }
-    // State z = (x, p = previous film sample used, u = previous command [, h = held sample]).
-    // Without delay the sample used at k is c x_k; with delay it is h_k = c x_{k−1}.
-    let extra = if law.delay { 3 } else { 2 };
-    let m = nx + extra;
-    let (ip, iu, ih) = (nx, nx + 1, nx + 2);
-    // u_k = a u_{k−1} + b (s_k − p_k), s_k the sample used at k.
-    let mut u_row = DMatrix::<f64>::zeros(1, m);
-    u_row[(0, iu)] = a;
-    u_row[(0, ip)] = -b;
-    if law.delay {
-        u_row[(0, ih)] += b;
+    y[if amp { 2 * n } else { iu }] += link.feedthrough;
+    // The sample the law reads at k.
+    let s = if board.delay {
+        let mut s = DVector::<f64>::zeros(m);
+        s[ih] = 1.0;
+        s
     } else {
-        for j in 0..nx {
-            u_row[(0, j)] += b * c[(0, j)];
-        }
+        y.clone()
+    };
+    // The command applied: u_k = gain (C z_k + D s_k).
+    let mut u = &s * (gain * law.d);
+    for i in 0..nz {
+        u[iz + i] += gain * law.c[i];
     }
     let mut z = DMatrix::<f64>::zeros(m, m);
-    // x_{k+1} = Ad x_k + Bd u_k.
     for i in 0..nx {
         for j in 0..nx {
             z[(i, j)] = ad[(i, j)];
         }
         for j in 0..m {
-            z[(i, j)] += bd[(i, 0)] * u_row[(0, j)];
-        }
-    }
-    // p_{k+1} = s_k; u_{k+1 − 1} = u_k; h_{k+1} = c x_k.
-    if law.delay {
-        z[(ip, ih)] = 1.0;
-        for j in 0..nx {
-            z[(ih, j)] = c[(0, j)];
-        }
-    } else {
-        for j in 0..nx {
-            z[(ip, j)] = c[(0, j)];
+            z[(i, j)] += bd[(i, 0)] * u[j];
         }
     }
     for j in 0..m {
-        z[(iu, j)] = u_row[(0, j)];
+        z[(iu, j)] = u[j];
+        for i in 0..nz {
+            z[(iz + i, j)] = law.b[i] * s[j];
+        }
+        if board.delay {
+            z[(ih, j)] = y[j];
+        }
+    }
+    for i in 0..nz {
+        for k in 0..nz {
+            z[(iz + i, iz + k)] += law.a[(i, k)];
+        }
     }
     z
 }
 
-/// Spectral radius of the closed loop: below 1 is stable.
-pub fn spectral_radius(link: &ModalLink, law: &PiezoLoop) -> f64 {
-    closed_loop(link, law)
-        .complex_eigenvalues()
-        .iter()
-        .map(|l| l.norm())
-        .fold(0.0, f64::max)
+/// Spectral radius of the closed loop: below 1 is stable ([`crate::eigen`]).
+pub fn spectral_radius(link: &ModalLink, law: &PiezoLoop) -> Result<f64, EigenError> {
+    crate::eigen::spectral_radius(&closed_loop(link, law))
 }
 
 /// The factor on `k_c` at which the loop becomes unstable (bisection on the spectral radius,
 /// to 0.1 %), searched up to `max_factor`; `None` if it is stable up to there.
-pub fn gain_margin(link: &ModalLink, law: &PiezoLoop, max_factor: f64) -> Option<f64> {
+pub fn gain_margin(
+    link: &ModalLink,
+    law: &PiezoLoop,
+    max_factor: f64,
+) -> Result<Option<f64>, EigenError> {
+    gain_margin_with(
+        link,
+        &law.board(),
+        &LinearLaw::rate(law.k_c, law.cutoff_hz, law.period),
+        max_factor,
+    )
+}
+
+/// The factor on the actuator path's gain ([`closed_loop_with`]) at which the loop becomes
+/// unstable (bisection to 0.1 %), searched up to `max_factor`; `None` if it is stable up to
+/// there, `Some(0)` if it is unstable at any gain.
+pub fn gain_margin_with(
+    link: &ModalLink,
+    board: &Board,
+    law: &LinearLaw,
+    max_factor: f64,
+) -> Result<Option<f64>, EigenError> {
     let stable = |g: f64| {
-        spectral_radius(
-            link,
-            &PiezoLoop {
-                k_c: law.k_c * g,
-                ..*law
-            },
-        ) < 1.0
+        crate::eigen::spectral_radius(&closed_loop_with(link, board, law, g)).map(|r| r < 1.0)
     };
-    if stable(max_factor) {
-        return None;
+    if stable(max_factor)? {
+        return Ok(None);
     }
     let (mut lo, mut hi) = (0.0, max_factor);
     while hi - lo > 1e-3 * hi {
         let mid = 0.5 * (lo + hi);
-        if stable(mid) {
+        if stable(mid)? {
             lo = mid;
         } else {
             hi = mid;
         }
     }
-    Some(lo)
+    Ok(Some(lo))
 }

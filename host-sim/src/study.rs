@@ -162,12 +162,46 @@ pub fn label(controller: &str) -> &'static str {
     }
 }
 
-/// Runs the cases in parallel; `progress` draws a bar on the terminal.
+/// Most motor samples the traces of one study hold together (about 150 bytes each, so about
+/// 300 MB): every run keeps its whole trace until the study writes them, so a study's memory
+/// is the sum of its runs'. Each run alone is bounded by `sim::MAX_RECORDED_SAMPLES`.
+pub const MAX_STUDY_SAMPLES: f64 = 2e6;
+
+/// Refuses, before any of them runs, cases whose traces would hold more than
+/// [`MAX_STUDY_SAMPLES`] together, with the size they would need and the longest `duration`
+/// that fits.
+pub fn check_memory(cases: &[Case]) -> Result<(), SimError> {
+    let samples = |c: &Case| c.config.duration * c.config.rates.motor_hz;
+    let total: f64 = cases.iter().map(samples).sum();
+    if total <= MAX_STUDY_SAMPLES {
+        return Ok(());
+    }
+    let bytes = std::mem::size_of::<Sample>() as f64;
+    let longest = cases
+        .iter()
+        .map(|c| c.config.duration * MAX_STUDY_SAMPLES / total)
+        .fold(f64::INFINITY, f64::min);
+    Err(SimError::Input {
+        key: "duration",
+        msg: format!(
+            "{} runs would hold {total:.3e} motor samples together ({:.1} GB); a study holds at most {MAX_STUDY_SAMPLES:e} ({:.0} MB): give a `duration` of at most {longest:.3} s",
+            cases.len(),
+            total * bytes / 1e9,
+            MAX_STUDY_SAMPLES * bytes / 1e6
+        ),
+    })
+}
+
+/// Runs the cases in parallel; `progress` draws a bar on the terminal. With `record` (every
+/// run's trace kept), cases over [`MAX_STUDY_SAMPLES`] are refused before any runs.
 pub fn run(
     cases: Vec<Case>,
     record: bool,
     progress: bool,
 ) -> Result<Vec<Outcome>, (String, SimError)> {
+    if record {
+        check_memory(&cases).map_err(|e| ("the study".to_string(), e))?;
+    }
     let bar = if progress {
         ProgressBar::new(cases.len() as u64)
     } else {
@@ -192,4 +226,44 @@ pub fn run(
         .collect();
     bar.finish_and_clear();
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_study_too_large_to_hold_is_refused_with_the_duration_that_fits() {
+        let opts = |duration| Options {
+            duration,
+            truth: Some(TruthSpec {
+                modes: 7,
+                ..TruthSpec::default()
+            }),
+            ..Options::default()
+        };
+        let Ok(cases) = paper_cases(&opts(1000.0)) else {
+            unreachable!("the study's cases")
+        };
+        let Err(SimError::Input { key, msg }) = check_memory(&cases) else {
+            unreachable!("24 traces of 1e6 samples")
+        };
+        assert_eq!(key, "duration");
+        assert!(
+            msg.starts_with("24 runs would hold 2.400e7 motor samples"),
+            "{msg}"
+        );
+        // The duration it names fits; a little more does not.
+        let longest: f64 = msg
+            .rsplit("at most ")
+            .next()
+            .and_then(|s| s.trim_end_matches(" s").parse().ok())
+            .unwrap_or(f64::NAN);
+        for (d, fits) in [(longest, true), (longest * 1.01, false)] {
+            let Ok(cases) = paper_cases(&opts(d)) else {
+                unreachable!("the study's cases")
+            };
+            assert_eq!(check_memory(&cases).is_ok(), fits, "{d} s");
+        }
+    }
 }

@@ -13,15 +13,21 @@
 //! - `b11 = A + J(δ) + 2h`, `b12 = J(δ) + h`, `b22 = J(δ)`,
 //! - `b1,2+j = a1 cos θ2 · v_j + w_j`, `b2,2+j = w_j`, `B_δδ = I`,
 //!
-//! `A = I_h1 + I_1 + m1 a1²/4 + (m_h2 + m) a1²`, `J(δ) = I_h2 + I_2x + S2 + δᵀδ`,
+//! `A = I_h1 + I_1 + m1 a1²/4 + (m_h2 + m) a1²`, `J(δ) = I_h2 + I_2x + S2 + δᵀGδ`,
 //! `h = a1 (cos θ2 · S1 − sin θ2 · vᵀδ)`. `K = diag(ω_j²)`, `D = diag(2 ζ_j ω_j)`.
+//!
+//! `δᵀGδ` is the link's second moment of the deflection, `∫ρw² + M w(L)²`. The tip body turns
+//! with the tip's slope, `½ J_t (α̇ + φ'(L)ᵀδ̇)²`: it gives `J_t` in `S2`, `J_t φ'_j(L)` in `w_j`
+//! and `J_t φ'(L)φ'(L)ᵀ` in the modal mass, but no `α̇² δ²` term. With the unit modal mass taken
+//! over all three, `G = I − r rᵀ` with `r = √J_t φ'(L)` (`G = I` without a rotary inertia, the
+//! core's uniform link).
 //!
 //! ## Coriolis and centrifugal forces
 //! `C(q, q̇) q̇ = Ḃ q̇ − ½ ∇_q (q̇ᵀ B q̇)`, the Christoffel form, in closed form: with
-//! `σ = θ̇1 + θ̇2`, `j = δᵀδ̇`, `e_k = −a1 v_k sin θ2`, `E = eᵀδ̇`,
+//! `σ = θ̇1 + θ̇2`, `j = δᵀGδ̇`, `e_k = −a1 v_k sin θ2`, `E = eᵀδ̇`,
 //! `∂h/∂θ2 = −a1 (sin θ2 · S1 + cos θ2 · vᵀδ)` and `H = ∂h/∂θ2 · θ̇2 + E`:
 //! `c_0 = ∂h/∂θ2 (2θ̇1θ̇2 + θ̇2²) + 2(j + E)σ`, `c_1 = 2jσ − ∂h/∂θ2 · θ̇1²`,
-//! `c_{2+k} = −e_k θ̇1² − δ_k σ²` (the same closed forms as the core's for two modes).
+//! `c_{2+k} = −e_k θ̇1² − (Gδ)_k σ²` (the core's closed forms for two modes, where `G = I`).
 //!
 //! Neglected, as in the controller's model: axial foreshortening and the geometric
 //! (centrifugal) stiffening of the link; both are of order `(spin/ω1)²` and
@@ -51,6 +57,9 @@ pub struct LinkBody {
     pub zeta: Vec<f64>,
     /// Tip values `φ_j(L)` [1/√kg]: the tip deflection is `Σ φ_j(L) δ_j`.
     pub tip: Vec<f64>,
+    /// `r_j = √J_t φ'_j(L)` [-]: the tip body's rotary inertia `J_t` turning with
+    /// the tip's slope (module docs: `G = I − r rᵀ`); empty or zero without one.
+    pub tip_rotary: Vec<f64>,
 }
 
 impl LinkBody {
@@ -81,6 +90,7 @@ impl LinkBody {
             omega: pm.omega(),
             zeta: model.zeta.clone(),
             tip: ints.iter().map(|i| i.2).collect(),
+            tip_rotary: pm.modes.iter().map(|m| j_t.sqrt() * m.slope(l)).collect(),
         })
     }
 
@@ -97,6 +107,7 @@ impl LinkBody {
             omega: vec![md.omega.x, md.omega.y],
             zeta: vec![md.zeta.x, md.zeta.y],
             tip: vec![md.tip.x, md.tip.y],
+            tip_rotary: Vec::new(),
         }
     }
 
@@ -131,6 +142,8 @@ pub struct TruthArm<const D: usize> {
     /// `v_j`, `w_j` in the modal entries (`2..D`), zero in the joint entries.
     v: Coords<D>,
     w: Coords<D>,
+    /// `r = √J_t φ'(L)` in the modal entries (`G = I − r rᵀ`, module docs).
+    r: Coords<D>,
     /// `ω_j²` and `2 ζ_j ω_j` in the modal entries.
     k: Coords<D>,
     d: Coords<D>,
@@ -149,6 +162,7 @@ impl<const D: usize> TruthArm<D> {
             || link.w.len() != n
             || link.zeta.len() != n
             || link.tip.len() != n
+            || !(link.tip_rotary.is_empty() || link.tip_rotary.len() == n)
         {
             return Err(TruthError(format!(
                 "the link has {} modes, the arm {} coordinates: need modes = coordinates − 2 ≥ 1",
@@ -162,7 +176,8 @@ impl<const D: usize> TruthArm<D> {
             .chain(link.w.iter().copied())
             .chain(link.omega.iter().copied())
             .chain(link.zeta.iter().copied())
-            .chain(link.tip.iter().copied());
+            .chain(link.tip.iter().copied())
+            .chain(link.tip_rotary.iter().copied());
         if !all.clone().all(f64::is_finite) || link.omega.iter().any(|w| *w <= 0.0) {
             return Err(TruthError("the link's data must be finite, ω > 0".into()));
         }
@@ -171,6 +186,10 @@ impl<const D: usize> TruthArm<D> {
         let mut w = Coords::<D>::zeros();
         let mut k = Coords::<D>::zeros();
         let mut d = Coords::<D>::zeros();
+        let mut r = Coords::<D>::zeros();
+        for (j, x) in link.tip_rotary.iter().enumerate() {
+            r[2 + j] = *x;
+        }
         for j in 0..n {
             v[2 + j] = link.v[j];
             w[2 + j] = link.w[j];
@@ -184,6 +203,7 @@ impl<const D: usize> TruthArm<D> {
             s1: link.first_moment,
             v,
             w,
+            r,
             k,
             d,
             rotor: [0.0; 3],
@@ -204,12 +224,23 @@ impl<const D: usize> TruthArm<D> {
         self
     }
 
+    /// `K` and `D` of the mechanics, diagonal: `ω_j²` and `2 ζ_j ω_j` in the modal entries,
+    /// zero in the joint entries [1/s², 1/s].
+    pub fn stiffness_damping(&self) -> (Coords<D>, Coords<D>) {
+        (self.k, self.d)
+    }
+
     /// The modal part `δ` of `q` (joint entries zero).
     fn modal(q: &Coords<D>) -> Coords<D> {
         let mut m = *q;
         m[0] = 0.0;
         m[1] = 0.0;
         m
+    }
+
+    /// `G x = x − r (rᵀx)` of a modal vector `x` (module docs).
+    fn g_times(&self, x: &Coords<D>) -> Coords<D> {
+        x - self.r * self.r.dot(x)
     }
 
     /// `(sin θ2, cos θ2, vᵀδ)`.
@@ -222,7 +253,7 @@ impl<const D: usize> TruthArm<D> {
     pub fn inertia(&self, q: &Coords<D>) -> SMatrix<f64, D, D> {
         let (s2, c2, vd) = self.angles(q);
         let delta = Self::modal(q);
-        let jd = self.j_const + delta.dot(&delta);
+        let jd = self.j_const + delta.dot(&self.g_times(&delta));
         let h = self.a1 * (c2 * self.s1 - s2 * vd);
         let mut b = SMatrix::<f64, D, D>::identity();
         b[(0, 0)] = self.a_const + jd + 2.0 * h + self.rotor[0];
@@ -243,6 +274,8 @@ impl<const D: usize> TruthArm<D> {
     pub fn inertia_partials(&self, q: &Coords<D>) -> Vec<SMatrix<f64, D, D>> {
         let (s2, c2, vd) = self.angles(q);
         let dh = -self.a1 * (s2 * self.s1 + c2 * vd);
+        // ∂J/∂δ_k = 2 (Gδ)_k.
+        let g = self.g_times(&Self::modal(q));
         let mut out = vec![SMatrix::<f64, D, D>::zeros(); D];
         let t = &mut out[1];
         t[(0, 0)] = 2.0 * dh;
@@ -254,10 +287,10 @@ impl<const D: usize> TruthArm<D> {
         }
         for (k, p) in out.iter_mut().enumerate().skip(2) {
             let e = -self.a1 * s2 * self.v[k];
-            p[(0, 0)] = 2.0 * q[k] + 2.0 * e;
-            p[(0, 1)] = 2.0 * q[k] + e;
+            p[(0, 0)] = 2.0 * g[k] + 2.0 * e;
+            p[(0, 1)] = 2.0 * g[k] + e;
             p[(1, 0)] = p[(0, 1)];
-            p[(1, 1)] = 2.0 * q[k];
+            p[(1, 1)] = 2.0 * g[k];
         }
         out
     }
@@ -266,15 +299,16 @@ impl<const D: usize> TruthArm<D> {
     pub fn coriolis(&self, q: &Coords<D>, qd: &Coords<D>) -> Coords<D> {
         let (s2, c2, vd) = self.angles(q);
         let (delta, delta_d) = (Self::modal(q), Self::modal(qd));
+        let g_delta = self.g_times(&delta);
         let dh = -self.a1 * (s2 * self.s1 + c2 * vd);
         let e = self.v * (-self.a1 * s2);
-        let (j, big_e) = (delta.dot(&delta_d), e.dot(&delta_d));
+        let (j, big_e) = (g_delta.dot(&delta_d), e.dot(&delta_d));
         let sigma = qd[0] + qd[1];
         let mut c = Coords::<D>::zeros();
         c[0] = dh * (2.0 * qd[0] * qd[1] + qd[1] * qd[1]) + 2.0 * (j + big_e) * sigma;
         c[1] = 2.0 * j * sigma - dh * qd[0] * qd[0];
         for k in 2..D {
-            c[k] = -e[k] * qd[0] * qd[0] - delta[k] * sigma * sigma;
+            c[k] = -e[k] * qd[0] * qd[0] - g_delta[k] * sigma * sigma;
         }
         c
     }

@@ -854,3 +854,356 @@ fn identify_decay_checks_a_model_file() {
         );
     }
 }
+
+/// Runs `args` with `{}` replaced by a scratch file of `text`; the error's first words.
+fn refusal(name: &str, text: &str, args: &[&str]) -> String {
+    let p = scratch(name, text);
+    let path = p.to_str().unwrap();
+    let args: Vec<&str> = args
+        .iter()
+        .map(|a| if *a == "{}" { path } else { a })
+        .collect();
+    let (ok, _, stderr) = sim(&args);
+    assert!(!ok, "{name} must be refused");
+    assert_eq!(stderr.lines().count(), 1, "{name}: {stderr}");
+    stderr.replace(&format!("error: {path}"), "error: FILE")
+}
+
+#[test]
+fn every_toml_reader_names_the_line_and_the_key() {
+    let run = ["run", "{}", "--no-plots"];
+    let optimize = ["optimize", "{}", "--no-plots", "--out", "/nonexistent/o"];
+    let fragment = flexarm_sim::firmware_params::paper_fragment().unwrap();
+    let computed = fragment.replace("modes = \"paper\"", "modes = \"computed\"");
+    // The computed modes with a mass integral that is not a number.
+    let nan = computed
+        .lines()
+        .map(|l| match l.starts_with("mass_integral") {
+            true => "mass_integral = [nan, 0.1]",
+            false => l,
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let model = |arm: &str| format!("[arm]\n{arm}\n{fragment}");
+    let trapezoid = "[trajectory]\nkind = \"trapezoid\"\n";
+    let cases: Vec<(&str, String, &[&str], &str)> = vec![
+        // A span that starts a line (column 0) is that line's, and its key.
+        (
+            "duplicate.toml",
+            format!("{trapezoid}move_time = 2.0\nmove_time = 3.0\n"),
+            &run,
+            "FILE:4: `trajectory.move_time`: duplicate key",
+        ),
+        (
+            "column0.toml",
+            format!("name = \"x\"\nbogus = 1\n{trapezoid}"),
+            &run,
+            "FILE:2: `bogus`: unknown field `bogus`",
+        ),
+        (
+            "no_table.toml",
+            "name = \"x\"\nduration = 3.0\n".into(),
+            &run,
+            "FILE:1: `trajectory`: missing field `trajectory`",
+        ),
+        (
+            "plant_key.toml",
+            format!("{trapezoid}[plant]\nkind = \"truth\"\nfoo = 1\n"),
+            &run,
+            "FILE:5: `plant.foo`: unknown field `foo`",
+        ),
+        (
+            "plant_kind.toml",
+            format!("{trapezoid}\n[plant]\nmodes = 3\n"),
+            &run,
+            "FILE:4: `plant.kind`: missing field `kind`",
+        ),
+        (
+            "optimize_key.toml",
+            "[beam]\nlength = 0.7\n[optimize]\nstep = 0.05\nbogus = 1\n".into(),
+            &optimize,
+            "FILE:5: `optimize.bogus`: unknown field `bogus`",
+        ),
+        // An element names its own line.
+        (
+            "indexed.toml",
+            "[optimize]\nk_c = [\n  10.0,\n  1e-9,\n]\n".into(),
+            &optimize,
+            "FILE:4: `optimize.k_c[1]` = 1e-9 must lie in",
+        ),
+        (
+            "indexed_type.toml",
+            "[optimize]\nk_c = [\n  \"ten\",\n]\n".into(),
+            &optimize,
+            "FILE:3: `optimize.k_c[0]`: invalid type",
+        ),
+        // Checks after parsing: the line and the whole key path.
+        (
+            "plant_dt.toml",
+            format!("{trapezoid}\n[rates]\nplant_dt = 1e-9\n"),
+            &run,
+            "FILE:5: `rates.plant_dt`: ",
+        ),
+        (
+            "zeta.toml",
+            format!("{trapezoid}[plant]\nkind = \"truth\"\nzeta = [0.1, 2.0]\n"),
+            &run,
+            "FILE:5: `plant.zeta`: 2 is outside 0 to 1",
+        ),
+        (
+            "arm_zeta.toml",
+            model("zeta = [0.1, 7]"),
+            &[
+                "identify",
+                "decay",
+                "--model",
+                "{}",
+                "--out",
+                "/nonexistent/i",
+            ],
+            "FILE:2: `arm.zeta[1]` = 7 is outside 0 to 1",
+        ),
+        // A default that fails: the key the file writes that it fails against.
+        (
+            "default.toml",
+            format!("{trapezoid}move_time = 0.8\n"),
+            &run,
+            "FILE:3: `trajectory.ramp_time` = 0.5 s must be at most half the `move_time`",
+        ),
+        (
+            "default_lambda.toml",
+            "# one mode\n[beam]\nzeta = [0.1]\n".into(),
+            &optimize,
+            "FILE:3: `optimize.lambda` has 2 weights but `beam.zeta` keeps 1",
+        ),
+        // A 300-digit number is shown short.
+        (
+            "digits.toml",
+            format!("{trapezoid}move_time = 1{}.0\n", "0".repeat(300)),
+            &run,
+            "FILE:3: `trajectory.move_time` = 1e300 s is outside",
+        ),
+    ];
+    for (name, text, args, want) in cases {
+        let got = refusal(name, &text, args);
+        assert!(
+            got.starts_with(&format!("error: {want}")),
+            "{name}: want {want:?}, got {got:?}"
+        );
+        assert!(got.len() < 400, "{name}: {got}");
+    }
+    // The mass integral's line, in the fragment as written.
+    let text = nan;
+    let line = text
+        .lines()
+        .position(|l| l.starts_with("mass_integral"))
+        .unwrap()
+        + 1;
+    let got = refusal(
+        "mass_integral.toml",
+        &text,
+        &["firmware-params", "{}", "--out", "/nonexistent/g.rs"],
+    );
+    let want =
+        format!("error: FILE:{line}: `piezo.computed.mass_integral`: must be a finite number");
+    assert!(got.starts_with(&want), "{got}");
+}
+
+#[test]
+fn fixed_length_lists_refuse_extra_values_like_missing_ones() {
+    let trapezoid = "[trajectory]\nkind = \"trapezoid\"\n";
+    let fragment = flexarm_sim::firmware_params::paper_fragment().unwrap();
+    let run = ["run", "{}", "--no-plots"];
+    let model = [
+        "identify",
+        "decay",
+        "--model",
+        "{}",
+        "--out",
+        "/nonexistent/i",
+    ];
+    for (name, text, args, want) in [
+        (
+            "kp.toml",
+            format!("{trapezoid}[controller]\nkp = [90, 14, 0, 0, 12345]\n"),
+            &run[..],
+            "FILE:4: `controller.kp`: invalid length 5, expected exactly 4 values",
+        ),
+        (
+            "kp3.toml",
+            format!("{trapezoid}[controller]\nkp = [90, 14, 0]\n"),
+            &run[..],
+            "FILE:4: `controller.kp`: invalid length 3, expected exactly 4 values",
+        ),
+        (
+            "start.toml",
+            format!("{trapezoid}start = [0, 0, 7]\n"),
+            &run[..],
+            "FILE:3: `trajectory.start`: invalid length 3, expected exactly 2 values",
+        ),
+        (
+            "frequency.toml",
+            format!("[arm]\nfrequency_hz = [4, 10, 30]\n{fragment}"),
+            &model[..],
+            "FILE:2: `arm.frequency_hz`: invalid length 3, expected exactly 2 values",
+        ),
+        (
+            "slope.toml",
+            fragment.replacen("slope_diff = [", "slope_diff = [1.0, ", 1),
+            &model[..],
+            "`piezo.slope_diff`: invalid length 3, expected exactly 2 values",
+        ),
+    ] {
+        let got = refusal(name, &text, args);
+        assert!(got.contains(want), "{name}: want {want:?}, got {got:?}");
+    }
+}
+
+#[test]
+fn a_pose_outside_the_observers_range_is_refused_up_front() {
+    // The observer's controller refuses a measurement outside its encoder range: a hold (or a
+    // move's end) there would end at t = 0 with no file or key.
+    let observer = "[controller]\nstate = \"observer\"\n";
+    for (name, trajectory, want) in [
+        (
+            "hold.toml",
+            "kind = \"hold\"\nangles = [3.5, 0.0]\n",
+            "FILE:5: `trajectory.angles[0]`: joint 1 at 3.5 rad is outside -3.14159265 to 3.14159265 rad",
+        ),
+        (
+            "end.toml",
+            "kind = \"trapezoid\"\nstart = [0.0, 1.0]\namplitude = [0.0, 2.0]\n",
+            "FILE:6: `trajectory.amplitude[1]`: joint 2 at 3 rad is outside -2.8 to 2.8 rad",
+        ),
+    ] {
+        let text = format!("{observer}[trajectory]\n{trajectory}");
+        let got = refusal(name, &text, &["run", "{}", "--no-plots"]);
+        assert!(got.starts_with(&format!("error: {want}")), "{name}: {got}");
+    }
+}
+
+#[test]
+fn parallel_runs_into_one_folder_keep_every_manifest_entry() {
+    let out = fresh_dir("parallel");
+    let out_s = out.to_str().unwrap();
+    let files: Vec<_> = (0..6)
+        .map(|i| {
+            scratch(
+                &format!("parallel{i}.toml"),
+                &format!(
+                    "name = \"p{i}\"\nduration = 0.2\ntail_window = 0.1\n[trajectory]\nkind = \"hold\"\nangles = [0.0, 0.5]\n"
+                ),
+            )
+        })
+        .collect();
+    // Started together, they finish together.
+    let children: Vec<_> = files
+        .iter()
+        .map(|p| {
+            Command::new(env!("CARGO_BIN_EXE_flexarm-sim"))
+                .args(["run", p.to_str().unwrap(), "--out", out_s, "--no-plots"])
+                .stdout(std::process::Stdio::null())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for mut c in children {
+        assert!(c.wait().unwrap().success());
+    }
+    let manifest = std::fs::read_to_string(out.join(".flexarm-outputs")).unwrap();
+    for i in 0..6 {
+        for file in [format!("p{i}_indices.md"), format!("p{i}_scenario.csv")] {
+            assert!(
+                manifest.contains(&format!("run:p{i}\t{file}\n")),
+                "{file} lost: {manifest}"
+            );
+            assert!(out.join(&file).exists(), "{file}");
+        }
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn a_failed_command_leaves_no_output_folder_and_names_the_users_path() {
+    let out = fresh_dir("failed");
+    let (ok, _, stderr) = sim(&[
+        "optimize",
+        "/nonexistent/optimize.toml",
+        "--out",
+        out.join("optimize").to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.contains("cannot read"), "{stderr}");
+    assert!(!out.exists(), "no empty folder left: {:?}", names_in(&out));
+    // `--out` in a folder that does not exist: the error names that path.
+    let target = out.join("nodir").join("g.rs");
+    let fragment = format!("{}/../firmware/piezo.toml", env!("CARGO_MANIFEST_DIR"));
+    let (ok, _, stderr) = sim(&[
+        "firmware-params",
+        &fragment,
+        "--out",
+        target.to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && stderr.starts_with(&format!("error: cannot write {}: ", target.display())),
+        "{stderr}"
+    );
+    assert!(!stderr.contains(".tmp-"), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+}
+
+#[test]
+fn a_study_too_large_to_hold_is_refused_up_front() {
+    // 24 runs of 1e6 samples (3.5 GB): refused before any runs, with the size and the bound.
+    let out = fresh_dir("study-size");
+    let (ok, _, stderr) = sim(&[
+        "paper",
+        "--plant",
+        "truth",
+        "--modes",
+        "7",
+        "--duration",
+        "1000",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok, "{stderr}");
+    assert!(
+        stderr.contains("`duration`: 24 runs would hold 2.400e7 motor samples together")
+            && stderr.contains("a study holds at most 2e6"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_coarse_plant_step_names_the_step_it_needs() {
+    // Ten modes at 1 ms: the truth link's fastest mode diverges under RK4. Refused before the
+    // runs step, with the step to give, not "the plant state diverged".
+    let (ok, _, stderr) = sim(&[
+        "paper",
+        "--plant",
+        "truth",
+        "--modes",
+        "10",
+        "--plant-dt",
+        "1e-3",
+        "--piezo-hz",
+        "1000",
+        "--out",
+        fresh_dir("coarse").to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.lines().count() == 1, "{stderr}");
+    assert!(
+        stderr.contains("`rates.plant_dt`: 1e-3 s is too coarse for this plant")
+            && !stderr.contains("diverged ("),
+        "{stderr}"
+    );
+    let give: f64 = stderr
+        .split("give --plant-dt (`rates.plant_dt`) ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(f64::NAN);
+    assert!(give > 1e-4 && give < 1e-3, "{stderr}");
+}

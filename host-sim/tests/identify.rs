@@ -220,8 +220,8 @@ mod modes_and_model {
         println!("closed loop: Eq. 37 error {:+.3e}, tip {:+.3e}", e[0], e[1]);
         assert!(e[0].abs() < 0.1 && e[1].abs() < 0.1);
         // The held arm's free decay, as the identified model predicts it (the record's patch
-        // command replayed): frequencies within 1 % (−0.40 %, +0.27 %), damping within 15 %
-        // (+9.6 %, +4.8 %).
+        // command replayed): the second mode within 1 % in frequency and 15 % in damping, the
+        // first within 5 % and 50 % (`FIRST_HELD_MODE`).
         {
             use flexarm_sim::identify::decay::{
                 DecayPlan, DecaySettings, decay_experiment, fit_decay, predict, replay,
@@ -232,11 +232,12 @@ mod modes_and_model {
             let measured = fit_decay(&rec, &set).unwrap();
             let (ex, seconds) = replay(&trace).unwrap();
             let predicted = predict(&cfg, &arm, &patch, (&ex, seconds), &set).unwrap();
-            for m in measured.strongest(2) {
+            for (j, m) in measured.strongest(2).iter().enumerate() {
                 let q = predicted.nearest(m.omega).unwrap();
                 let (ef, ez) = (q.omega / m.omega - 1.0, q.zeta / m.zeta - 1.0);
                 println!("decay: identified model {ef:+.3e} in f, {ez:+.3e} in ζ");
-                assert!(ef.abs() < 0.01 && ez.abs() < 0.15);
+                let (bf, bz) = super::decay::bounds(j);
+                assert!(ef.abs() < bf && ez.abs() < bz, "mode {}", j + 1);
             }
         }
         // The file the simulator reads gives the same controller model.
@@ -351,6 +352,24 @@ mod decay {
         ModesRecord::from_trace(&trace, 10.0, (-200.0, 200.0)).unwrap()
     }
 
+    /// The held arm's first mode lies near a mode of the servo holding the joints, whose
+    /// quantized, noisy loop rings in it: its prediction moves with the noise's realization
+    /// (the sensors' seed). Over seeds 1 to 8 on the truth plant the true parameters' prediction
+    /// of it ranged over −0.7 to +3.9 % in frequency and −11 to +26 % in damping (the loop
+    /// before the drive ran in it: −2.6 to +1.3 % and −5 to +41 %), the second mode's over
+    /// −0.04 to +0.05 % and +1.0 to +2.3 %.
+    pub const FIRST_HELD_MODE: (f64, f64) = (0.05, 0.5);
+
+    /// The bounds on mode `j`'s (from 0) predicted frequency and damping, relative: the first
+    /// held mode's [`FIRST_HELD_MODE`], the second's 1 % and 15 %.
+    pub fn bounds(j: usize) -> (f64, f64) {
+        if j == 0 {
+            FIRST_HELD_MODE
+        } else {
+            (0.01, 0.15)
+        }
+    }
+
     /// Relative errors of a prediction's frequencies and damping ratios at the measured modes.
     fn errors(measured: &DecayFit, predicted: &DecayFit) -> Vec<(f64, f64)> {
         measured
@@ -364,8 +383,9 @@ mod decay {
     }
 
     /// The held arm's decay on the truth plant is what the controller built from the true
-    /// parameters predicts, its patch command replayed (docs/identification.md: +0.05 % and
-    /// +0.06 % in frequency, −0.8 % and +1.8 % in damping), within 1 % and 15 %; the paper's
+    /// parameters predicts, its patch command replayed (docs/identification.md), the second
+    /// mode within 1 % in frequency and 15 % in damping, the first within 5 % and 50 %
+    /// ([`FIRST_HELD_MODE`]); the paper's
     /// nominal model misses the second mode by more than 30 % (−44 %): the check tells the
     /// models apart. (The identified model's prediction is checked in
     /// `the_whole_loop_recovers_the_truth`.)
@@ -385,7 +405,8 @@ mod decay {
                 "mode {}: true parameters {ef:+.3e} in f, {ez:+.3e} in ζ",
                 j + 1
             );
-            assert!(ef.abs() < 0.01 && ez.abs() < 0.15, "mode {}", j + 1);
+            let (bf, bz) = bounds(j);
+            assert!(ef.abs() < bf && ez.abs() < bz, "mode {}", j + 1);
         }
         let paper = (ArmParams::default(), PiezoPatch::paper());
         let nominal = predict(&cfg, &paper.0, &paper.1, (&ex, seconds), &set).unwrap();

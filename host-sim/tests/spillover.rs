@@ -3,6 +3,7 @@
 //! prints the margins.
 
 use flexarm_beam::design::DesignModel;
+use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_sim::spillover::{ModalLink, PiezoLoop, gain_margin, spectral_radius};
 
 /// The design beam (the paper's section, aluminium) with the paper's patch, `n` modes.
@@ -23,6 +24,7 @@ fn link(n: usize) -> ModalLink {
         slope_diff: pm.slope_diff.clone(),
         k_a: pm.k_a,
         k_s: pm.k_s,
+        feedthrough: 0.0,
     }
 }
 
@@ -50,7 +52,7 @@ fn without_gain_the_loop_has_the_beams_own_decay() {
         .zip(&l.zeta)
         .map(|(w, z)| (-z * w * 1e-4).exp())
         .fold(0.0, f64::max);
-    let rho = spectral_radius(&l, &off);
+    let rho = spectral_radius(&l, &off).unwrap();
     assert!(
         (rho - slowest.max(filter)).abs() < 1e-9,
         "{rho} vs {slowest}, {filter}"
@@ -60,7 +62,8 @@ fn without_gain_the_loop_has_the_beams_own_decay() {
 #[test]
 fn the_margin_scales_with_the_sample_rate_and_shrinks_with_the_modes() {
     let (two, six) = (link(2), link(6));
-    let m = |l: &ModalLink, law: &PiezoLoop| gain_margin(l, law, 1e6).unwrap_or(f64::INFINITY);
+    let m =
+        |l: &ModalLink, law: &PiezoLoop| gain_margin(l, law, 1e6).unwrap().unwrap_or(f64::INFINITY);
     let fast = PiezoLoop {
         period: 5e-5,
         ..FIRMWARE
@@ -102,7 +105,7 @@ fn margins_of_the_shipped_piezo_loop() {
             .iter()
             .map(|&n| {
                 let f = link(n).omega.last().copied().unwrap_or(0.0) / std::f64::consts::TAU;
-                match gain_margin(&link(n), &law, 1e6) {
+                match gain_margin(&link(n), &law, 1e6).unwrap() {
                     Some(g) => format!("N = {n} (to {f:.0} Hz): {g:.1}"),
                     None => format!("N = {n} (to {f:.0} Hz): > 1e6"),
                 }
@@ -112,7 +115,11 @@ fn margins_of_the_shipped_piezo_loop() {
     }
     // Where the ten-mode loop goes unstable at the shipped gain.
     let m = flexarm_sim::spillover::closed_loop(&link(10), &FIRMWARE);
-    for l in m.complex_eigenvalues().iter().filter(|l| l.norm() > 1.0) {
+    for l in flexarm_sim::eigen::eigenvalues(&m)
+        .unwrap()
+        .iter()
+        .filter(|l| l.norm() > 1.0)
+    {
         println!(
             "  ten modes, 10 kHz: unstable pair |λ| = {:.4} at {:.0} Hz",
             l.norm(),
@@ -134,7 +141,8 @@ fn an_unstable_margin_is_a_growing_vibration() {
             z[j] = 1e-4; // every mode deflected a little
         }
         // The filter primed with the first sample, as the firmware's is (no start-up kick).
-        z[2 * n] = (0..n).map(|j| l.k_s * l.slope_diff[j] * z[j]).sum::<f64>(); // the filter's previous sample
+        // State (x, u_{k−1}, (u_{k−1}, y_{k−1})): the law's previous film sample is at 2n + 2.
+        z[2 * n + 2] = (0..n).map(|j| l.k_s * l.slope_diff[j] * z[j]).sum::<f64>();
         let mut at_1s = 0.0;
         for k in 0..50_000 {
             z = &m * z;
@@ -162,7 +170,9 @@ fn margins_against_the_filter_corner() {
             cutoff_hz: fc,
             ..FIRMWARE
         };
-        let g = gain_margin(&link(10), &law, 1e6).unwrap_or(f64::INFINITY);
+        let g = gain_margin(&link(10), &law, 1e6)
+            .unwrap()
+            .unwrap_or(f64::INFINITY);
         println!("  corner {fc} Hz: {g:.2}");
         margins.push(g);
     }
@@ -181,7 +191,9 @@ fn margins_with_a_real_amplifier() {
             amplifier_hz: f,
             ..FIRMWARE
         };
-        let g = gain_margin(&link(10), &law, 1e6).unwrap_or(f64::INFINITY);
+        let g = gain_margin(&link(10), &law, 1e6)
+            .unwrap()
+            .unwrap_or(f64::INFINITY);
         println!(
             "  amplifier {}: {g:.2}",
             f.map_or("ideal".into(), |f| format!("{f} Hz"))
@@ -204,6 +216,7 @@ fn the_study_finds_the_shipped_gain_unstable_and_the_rule_robust() {
             modes: 10,
             ..TruthSpec::default()
         },
+        &[],
         5.0,
     )
     .unwrap();
@@ -232,4 +245,109 @@ fn the_study_finds_the_shipped_gain_unstable_and_the_rule_robust() {
         "{rule:?}\n{shipped:?}"
     );
     println!("{}", flexarm_sim::spillover_study::markdown(&r));
+}
+
+/// Question 5 (issue 35): the laws on the realistic board with ten modes, across the film's
+/// feedthrough (bond 0, 0.5, 1), `N = 2 … 10`. About 5 s (30 closed-loop runs of 5 s on the
+/// ten-mode truth plant and 135 margins).
+#[test]
+fn only_positive_position_feedback_keeps_its_margin_and_damping_at_every_bond() {
+    use flexarm_sim::spillover_study::{BONDS, MARGIN, compare, meeting_the_goal, recommend, scan};
+    use flexarm_sim::truth_plant::TruthSpec;
+    let spec = TruthSpec {
+        modes: 10,
+        ..TruthSpec::default()
+    };
+    let full = ModalLink::from_truth(&spec, &Default::default(), &PiezoPatch::paper()).unwrap();
+    let board = flexarm_sim::spillover_study::realistic(&spec, FIRMWARE);
+    // The rate law's design rule (question 3), from the 30 Hz column of its scan.
+    let rule = recommend(
+        &scan(
+            &full,
+            &board,
+            &flexarm_sim::spillover_study::gains(),
+            &[30.0],
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let rows = compare(&spec, &BONDS, rule, 5.0).unwrap();
+    let row = |kind: &str, bond: f64| {
+        rows.iter()
+            .find(|r| r.kind == kind && r.bond == bond)
+            .unwrap()
+    };
+    assert_eq!(meeting_the_goal(&rows), vec!["ppf"]);
+    let base = row("rate rule", 0.0).zeta;
+    for &b in &BONDS {
+        let ppf = row("ppf", b);
+        // The rule's static budget: a factor of 2.5 (the DC limit), kept at every N.
+        assert!(ppf.worst_margin() >= MARGIN, "{b}: {:?}", ppf.margins);
+        assert!(
+            ppf.zeta[0] > 1.5 * base[0] && ppf.zeta[1] > 1.2 * base[1],
+            "{b}: {:?}",
+            ppf.zeta
+        );
+        // Settled: with a noise-free film, below the rate rule's residual on mode 1.
+        let clean = ppf.clean.as_ref().unwrap();
+        assert!(clean.tail_delta_abs[0] < 1.0e-6 * 0.2, "{b}: {clean:?}");
+        // IRC keeps its margin but not mode 2's damping.
+        let irc = row("irc", b);
+        assert!(
+            irc.worst_margin() >= MARGIN && irc.zeta[1] < base[1],
+            "{b}: {irc:?}"
+        );
+    }
+    // The rate rule loses its margin to the feedthrough; cancelling F̂ recovers only part.
+    assert!(row("rate rule", 1.0).worst_margin() < 1.0);
+    assert!(row("cancel", 1.0).worst_margin() < MARGIN && row("cancel", 1.0).worst_margin() > 1.0);
+    // The shipped gain is unstable at every N once the film sees half the perfect bond.
+    assert!(row("rate shipped", 0.5).margins.iter().all(|m| m.1 < 0.2));
+}
+
+/// The simulator runs the laws of issue 35 with the full state only, and refuses an invalid one
+/// with its key.
+#[test]
+fn the_simulator_refuses_a_law_it_cannot_run() {
+    use flexarm_core::control::irc::IrcGains;
+    use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
+    use flexarm_sim::sim::{PiezoLawChoice, SimConfig, SimError, StateSource, simulate};
+    let irc = IrcGains {
+        gamma: 1e3f32,
+        feedthrough: -5e-3,
+        leak_hz: 0.5,
+    };
+    let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
+    let key = |r: Result<_, SimError>| match r {
+        Err(SimError::Input { key, .. }) => key,
+        other => panic!("{other:?}"),
+    };
+    let observer = SimConfig {
+        piezo_law: Some(PiezoLawChoice::Irc(irc)),
+        state: StateSource::Observer,
+        duration: 0.01,
+        tail_window: 0.005,
+        ..SimConfig::default()
+    };
+    assert_eq!(
+        key(simulate(&observer, &traj, false).map(|_| ())),
+        "piezo_law"
+    );
+    let negative = SimConfig {
+        piezo_law: Some(PiezoLawChoice::Irc(IrcGains { gamma: -1.0, ..irc })),
+        duration: 0.01,
+        tail_window: 0.005,
+        ..SimConfig::default()
+    };
+    assert_eq!(
+        key(simulate(&negative, &traj, false).map(|_| ())),
+        "piezo_law"
+    );
+    let fine = SimConfig {
+        piezo_law: Some(PiezoLawChoice::Irc(irc)),
+        duration: 0.01,
+        tail_window: 0.005,
+        ..SimConfig::default()
+    };
+    assert!(simulate(&fine, &traj, false).is_ok());
 }

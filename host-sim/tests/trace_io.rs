@@ -76,6 +76,23 @@ fn a_trace_csv_reads_back_and_a_damaged_one_is_named() {
 /// (`Drive::path_segments`, `simulate_segments`): the reference passes through every waypoint at
 /// its time, has no jump where segments meet, and the arm follows.
 #[test]
+fn a_huge_trace_is_refused_with_its_size_before_it_is_read() {
+    use flexarm_sim::output::MAX_TRACE_BYTES;
+    let dir = std::env::temp_dir().join(format!("flexarm-trace-huge-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("huge.csv");
+    // A sparse file one byte over the bound: nothing of it is read.
+    let f = std::fs::File::create(&path).unwrap();
+    f.set_len(MAX_TRACE_BYTES + 1).unwrap();
+    let e = read_csv(&path).unwrap_err();
+    assert!(
+        e.contains("huge.csv: 300.0 MB: a trace is read up to 300 MB (1000000 samples)"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn a_path_runs_segment_by_segment_through_its_waypoints() {
     use flexarm_core::Vector2;
     use flexarm_core::control::motor::MotorLaw;

@@ -333,3 +333,124 @@ fn a_scenario_can_give_the_controller_another_model_on_purpose() {
     let f1 = truncation.arm.modes.omega.x / std::f64::consts::TAU;
     assert!((f1 - 4.54).abs() < 0.01, "{f1}");
 }
+
+/// The film's feedthrough (`plant.film_bond`): right after a step of the patch voltage the film
+/// jumps by `β F ΔV` before any mode has moved, and without it there is no jump; the jump is
+/// opposite in sign to the slow (bending) response that follows.
+#[test]
+fn the_film_jumps_by_the_bonds_share_of_the_feedthrough() {
+    let f = flexarm_core::control::piezo::PiezoMaterial::<f64> {
+        t_b: flexarm_sim::truth_plant::DEFAULT_THICKNESS,
+        ..Default::default()
+    }
+    .film_feedthrough();
+    let dt = 1e-5;
+    for bond in [0.0, 0.5, 1.0] {
+        let spec = TruthSpec {
+            modes: 4,
+            film_bond: bond,
+            ..TruthSpec::default().ideal_actuators()
+        };
+        let mut p = plant::<6>(&spec);
+        p.step(&Vector2::zeros(), 10.0, dt).unwrap();
+        let jump = p.film();
+        // The modes move by t²/2 · Σ g_j ΔV in the first step: 6.6e-8 V here, 6e-6 of the jump.
+        assert!(
+            (jump - bond * f * 10.0).abs() < 1e-5 * (f * 10.0).abs(),
+            "bond {bond}: {jump} vs {}",
+            bond * f * 10.0
+        );
+        // 0.2 s later the bending path has taken over, with the other sign.
+        for _ in 0..20_000 {
+            p.step(&Vector2::zeros(), 10.0, dt).unwrap();
+        }
+        assert!(p.film() > 0.0, "bond {bond}: {}", p.film());
+    }
+}
+
+/// Steps the plant `p` at `dt` [s] after a torque pulse: whether its rates stay within twice
+/// what the pulse gave them (the damped mechanics' decay, a joint without friction coasts).
+fn stays_put(p: &mut dyn Plant, dt: f64) -> bool {
+    let pulse = Vector2::new(0.5, 0.3);
+    let mut after_pulse = 0.0;
+    for k in 0..20_000 {
+        let tau = if k < 5 { pulse } else { Vector2::zeros() };
+        if p.step(&tau, 0.0, dt).is_err() {
+            return false;
+        }
+        if k == 5 {
+            after_pulse = p.state().qd.abs().max();
+        }
+    }
+    p.state().qd.abs().max() <= 2.0 * after_pulse
+}
+
+#[test]
+fn the_stable_step_is_where_rk4_stops_diverging() {
+    // A family of links: stiffer, softer, more modes, a payload, stiff viscous joints; and the
+    // controller's own model with fast modes. Just inside the stable step each stays put after
+    // a torque pulse; just outside it does not (its fastest rate grows by |R(λ h)| > 1 a step,
+    // until it diverges or the nonlinear terms hold it in a motion of their own).
+    let spec = |modes, thickness, tip_mass, viscous| {
+        let mut s = TruthSpec {
+            modes,
+            thickness,
+            tip_mass,
+            ..TruthSpec::default()
+        };
+        for m in &mut s.motors {
+            m.viscous = viscous;
+        }
+        s
+    };
+    let mut checked = String::new();
+    for s in [
+        spec(10, 2.5e-3, 0.0, 0.02),
+        spec(6, 4e-3, 0.0, 0.02),
+        spec(3, 1.5e-3, 0.1, 0.02),
+        spec(2, 2.5e-3, 0.0, 500.0),
+    ] {
+        let cfg = SimConfig::default().with_truth(s).unwrap();
+        let stable = cfg.plant_at(Vector2::zeros()).unwrap().stable_step();
+        // At the pose where it is fastest.
+        let pose = Vector2::new(0.0, stable.theta2);
+        for (factor, put) in [(0.95, true), (1.05, false)] {
+            let mut p = cfg.plant_at(pose).unwrap();
+            assert_eq!(
+                stays_put(p.as_mut(), factor * stable.dt),
+                put,
+                "{} modes, t_b {}, viscous {}: {factor} x {:.3e} s",
+                s.modes,
+                s.thickness,
+                s.motors[0].viscous,
+                stable.dt
+            );
+        }
+        checked += &format!(" {:.3e}", stable.dt);
+    }
+    // The controller's model with fast modes (a scenario's `[arm] frequency_hz` up to 1 kHz).
+    let mut arm = ArmParams::<f64>::default();
+    arm.modes = flexarm_core::params::ModalData::uniform(
+        arm.m2,
+        arm.a2,
+        flexarm_core::Vector2::new(200.0, 900.0) * std::f64::consts::TAU,
+        arm.modes.zeta,
+    );
+    let cfg = SimConfig {
+        arm,
+        ..SimConfig::default()
+    };
+    let stable = cfg.plant_at(Vector2::zeros()).unwrap().stable_step();
+    for (factor, put) in [(0.95, true), (1.05, false)] {
+        let mut p = cfg.plant_at(Vector2::new(0.0, stable.theta2)).unwrap();
+        assert_eq!(
+            stays_put(p.as_mut(), factor * stable.dt),
+            put,
+            "model plant"
+        );
+    }
+    println!(
+        "stable steps [s]: {checked}, model plant with 900 Hz: {:.3e}",
+        stable.dt
+    );
+}

@@ -28,10 +28,11 @@
 
 pub mod frame;
 pub mod msg;
+pub mod params;
 
 pub use frame::{Decoder, Encoder, FrameError, MAX_FRAME, encode};
 pub use msg::{Command, DeviceMsg, Reply, Request};
 
 /// The protocol version: a host and a firmware talk only when they agree on it (the
 /// handshake refuses otherwise). Bumped whenever a message changes shape.
-pub const VERSION: u16 = 4;
+pub const VERSION: u16 = 5;

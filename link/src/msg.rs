@@ -120,35 +120,90 @@ pub struct Waypoint {
     pub dt: f32,
 }
 
-/// The tunable parameters, each with its unit.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Param {
-    /// `K_p` diagonal entry `i` (0–3) [N·m·s/rad for the joints].
-    Kp(u8),
-    /// `Λ` diagonal entry `i` (0–3) [1/s].
-    Lambda(u8),
-    /// `D_Δ` entry `i` (0–1) of the robust term [1/s].
-    DDelta(u8),
-    /// Piezo gain `k_c` [s].
-    Kc,
-    /// Corner of the piezo rate filter [Hz].
-    CutoffHz,
-    /// Torque limit of joint `i` (0–1) [N·m].
-    TauMax(u8),
-    /// Top of the piezo amplifier's window [V].
-    VaMax,
-    /// Bottom of the piezo amplifier's window [V] (negative: a patch takes less reverse than
-    /// forward voltage).
-    VaMin,
-    /// Link watchdog timeout [s]; 0 disables it.
-    LinkTimeout,
-    /// A constant added to the piezo command [V], within the amplifier's window, for bring-up
-    /// and identification (`flexarm bringup`): written only while armed and holding; back to 0
-    /// as soon as the drive leaves holding (a move, a stop, a disarm, a fault).
-    VaBias,
+pub use crate::params::Param;
+
+/// A telemetry channel, described: a frame of [`Telemetry`] carries the values of the channels
+/// its [`Channels`] name, in the order of [`CHANNELS`]; a host reads them by name
+/// ([`Telemetry::value`]), never by position, so a frame of a subset reads right.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChannelInfo {
+    /// Its bit in [`Channels`].
+    pub bit: u16,
+    /// Its name.
+    pub name: &'static str,
+    /// The unit of its values.
+    pub unit: &'static str,
+    /// How many values a frame carries for it.
+    pub width: usize,
+    /// What it is.
+    pub doc: &'static str,
 }
 
-/// Telemetry channels, one bit each (the values follow in this order).
+/// Every channel, in the order a frame carries their values (bit `i` is entry `i`).
+pub const CHANNELS: [ChannelInfo; 7] = [
+    ChannelInfo {
+        bit: Channels::ERROR,
+        name: "error",
+        unit: "rad",
+        width: 2,
+        doc: "joint tracking errors θ̂ − θ_d of the motor step",
+    },
+    ChannelInfo {
+        bit: Channels::THETA,
+        name: "theta",
+        unit: "rad",
+        width: 2,
+        doc: "estimated joint angles θ̂, the estimate the motor step ran on",
+    },
+    ChannelInfo {
+        bit: Channels::DELTA,
+        name: "delta",
+        unit: "√kg·m",
+        width: 2,
+        doc: "estimated modal coordinates δ̂, as θ̂",
+    },
+    ChannelInfo {
+        bit: Channels::TAU,
+        name: "tau",
+        unit: "N·m",
+        width: 2,
+        doc: "motor torque commands τ",
+    },
+    ChannelInfo {
+        bit: Channels::V_A,
+        name: "v_a",
+        unit: "V",
+        width: 1,
+        doc: "piezo command V_a",
+    },
+    ChannelInfo {
+        bit: Channels::V_F,
+        name: "v_f",
+        unit: "V",
+        width: 1,
+        doc: "film voltage V_f, the motor step's sample",
+    },
+    ChannelInfo {
+        bit: Channels::LOAD,
+        name: "load",
+        unit: "fraction of the period",
+        width: 2,
+        doc: "the piezo and motor loops' mean execution time over the last supervisor window",
+    },
+];
+
+/// The channels' widths, in their order (from [`CHANNELS`], at compile time).
+const WIDTHS: [usize; CHANNELS.len()] = {
+    let mut w = [0; CHANNELS.len()];
+    let mut i = 0;
+    while i < w.len() {
+        w[i] = CHANNELS[i].width;
+        i += 1;
+    }
+    w
+};
+
+/// Telemetry channels, one bit each (described in [`CHANNELS`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Channels(pub u16);
 
@@ -169,20 +224,28 @@ impl Channels {
     /// window over the period [fraction] (2).
     pub const LOAD: u16 = 1 << 6;
     /// Every channel.
-    pub const ALL: u16 = (1 << 7) - 1;
+    pub const ALL: u16 = (1 << CHANNELS.len()) - 1;
 
     /// Values a frame carries for these channels.
     pub const fn values(self) -> usize {
-        let widths = [2, 2, 2, 2, 1, 1, 2];
         let mut n = 0;
         let mut i = 0;
-        while i < widths.len() {
+        while i < WIDTHS.len() {
             if self.0 & (1 << i) != 0 {
-                n += widths[i];
+                n += WIDTHS[i];
             }
             i += 1;
         }
         n
+    }
+
+    /// Where the values of the channel `bit` start in a frame of these channels; `None` when
+    /// the frame does not carry it.
+    pub const fn offset(self, bit: u16) -> Option<usize> {
+        if self.0 & bit == 0 || bit.count_ones() != 1 {
+            return None;
+        }
+        Some(Self(self.0 & (bit - 1)).values())
     }
 
     /// The longest frame of a [`Telemetry`] message with these channels, on the wire [bytes]:
@@ -365,6 +428,19 @@ pub struct Telemetry {
     pub channels: Channels,
     /// The selected channels' values, in [`Channels`] order.
     pub values: Vec<f32, MAX_CHANNELS>,
+}
+
+impl Telemetry {
+    /// The `j`-th value (from 0) of the channel `bit` in this frame, by its place among the
+    /// channels the frame names; `None` when it does not carry it.
+    pub fn value(&self, bit: u16, j: usize) -> Option<f32> {
+        let width = CHANNELS.iter().find(|c| c.bit == bit)?.width;
+        if j >= width {
+            return None;
+        }
+        let at = self.channels.offset(bit)? + j;
+        self.values.get(at).copied()
+    }
 }
 
 /// One sample of the fault recorder (one per motor period before the fault).

@@ -26,16 +26,7 @@ fn pair() -> impl Strategy<Value = [f32; 2]> {
 }
 
 fn param() -> impl Strategy<Value = Param> {
-    prop_oneof![
-        any::<u8>().prop_map(Param::Kp),
-        any::<u8>().prop_map(Param::Lambda),
-        any::<u8>().prop_map(Param::DDelta),
-        Just(Param::Kc),
-        Just(Param::CutoffHz),
-        any::<u8>().prop_map(Param::TauMax),
-        Just(Param::VaMax),
-        Just(Param::LinkTimeout),
-    ]
+    (0..flexarm_link::params::PARAMS.len()).prop_map(|i| flexarm_link::params::PARAMS[i].param)
 }
 
 fn command() -> impl Strategy<Value = Command> {
@@ -429,4 +420,42 @@ fn bad_frames_are_named_and_the_next_one_is_delivered() {
     // Consecutive zeros are nothing.
     assert!(decode_all::<Request>(&[0, 0, 0]).is_empty());
     let _ = VERSION;
+}
+
+/// A frame's values are read by name: each channel's place follows from the channels the frame
+/// names, so a subset reads right and a channel it lacks reads nothing.
+#[test]
+fn telemetry_is_read_by_name_whatever_the_subset() {
+    use flexarm_link::msg::CHANNELS;
+    // Every subset of the channels, each value its channel's bit and index.
+    for bits in 0..=Channels::ALL {
+        let channels = Channels(bits);
+        let mut values = heapless::Vec::new();
+        for c in CHANNELS.iter().filter(|c| bits & c.bit != 0) {
+            for j in 0..c.width {
+                values.push(f32::from(c.bit) + j as f32 / 10.0).unwrap();
+            }
+        }
+        assert_eq!(values.len(), channels.values());
+        let t = Telemetry {
+            seq: 0,
+            tick: 0,
+            channels,
+            values,
+        };
+        for c in &CHANNELS {
+            for j in 0..c.width {
+                let want = (bits & c.bit != 0).then_some(f32::from(c.bit) + j as f32 / 10.0);
+                assert_eq!(t.value(c.bit, j), want, "{bits:#b} {} {j}", c.name);
+            }
+            assert_eq!(t.value(c.bit, c.width), None);
+        }
+    }
+    assert_eq!(
+        CHANNELS.iter().map(|c| c.width).sum::<usize>(),
+        Channels(Channels::ALL).values()
+    );
+    for (i, c) in CHANNELS.iter().enumerate() {
+        assert_eq!(c.bit, 1 << i, "{}", c.name);
+    }
 }

@@ -1,19 +1,15 @@
-//! The firmware's control schedule on the host, with the same core code the firmware runs:
-//! the complete controller (observer, checks, latch) against the `f32` simulated arm of the
-//! QEMU board, the piezo loop stepping the plant every piezo period and the motor loop running
-//! every `ratio` piezo periods. These runs justify the bounds the QEMU run checks
-//! (`docs/firmware.md`): `cargo test -p flexarm-tests --test firmware_loop -- --nocapture`.
+//! The firmware's boot move on the host, with the code the firmware runs: the host's rig
+//! (`flexarm_sim::rig`) of each board's generated configuration on the QEMU board's simulated
+//! arm, the drive armed at boot and the paper's trapezoid started, as the QEMU verdict run does.
+//! These runs justify the bounds the QEMU run checks (`firmware/src/config.rs`, `bounds`;
+//! `docs/firmware.md`): `cargo test -p flexarm-tests --test firmware_loop -- --nocapture`.
 
+use flexarm_core::Vector2;
 use flexarm_core::control::motor::MotorLaw;
-use flexarm_core::control::piezo::PiezoPatch;
-use flexarm_core::controller::Controller;
-use flexarm_core::model::Model;
-use flexarm_core::observer::Measurement;
-use flexarm_core::observer_gains::{GAIN_1KHZ, GAIN_100HZ, gain};
-use flexarm_core::params::ArmParams;
-use flexarm_core::simarm::{SensorModel, SimArm};
-use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
-use flexarm_core::{Vector2, Vector4};
+use flexarm_core::drive::MoveRequest;
+use flexarm_core::trajectory::Trapezoid;
+use flexarm_link::msg::Board;
+use flexarm_machine::BoardConfig;
 
 struct Outcome {
     max_error: f32,
@@ -23,21 +19,23 @@ struct Outcome {
     enabled_to_the_end: bool,
 }
 
-fn run(piezo_hz: f32, ratio: u32, table: &[[f32; 3]; 8], law: MotorLaw, seconds: f32) -> Outcome {
-    let dt_p = 1.0 / piezo_hz;
-    let dt_m = dt_p * ratio as f32;
-    let arm = ArmParams::<f32>::default();
-    let patch = PiezoPatch::<f32>::paper();
-    let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
-    let mut ctrl = Controller::paper(law, traj, dt_p, dt_m, gain(table));
-    // As the firmware: the paper's gains, slowed for a slow motor loop.
-    ctrl.motor.gains = flexarm_core::params::Gains::default_for((1.0 / dt_m).round() as u32);
-    let mut sim = SimArm::new(
-        Model::new(arm),
-        patch,
-        Vector4::zeros(),
-        SensorModel::default(),
-    );
+/// `seconds` of the boot move of `board`'s firmware under `law`, measured on the plant (the true
+/// arm, not the controller's estimate) against the move, as the QEMU verdict run measures it.
+fn run(board: Board, law: MotorLaw, seconds: f32) -> Outcome {
+    let cfg = BoardConfig {
+        law,
+        ..flexarm_tests::firmware(board)
+    };
+    let mut rig = flexarm_tests::rig(cfg, [0.0, 0.0]);
+    let half_pi = core::f32::consts::FRAC_PI_2;
+    rig.arm().unwrap();
+    rig.start(&MoveRequest::Trapezoid {
+        target: Vector2::new(half_pi, half_pi),
+        move_time: 2.0,
+        ramp_time: 0.5,
+    })
+    .unwrap();
+    let paper = Trapezoid::<f32>::paper();
     let mut out = Outcome {
         max_error: 0.0,
         tail_error: 0.0,
@@ -46,33 +44,21 @@ fn run(piezo_hz: f32, ratio: u32, table: &[[f32; 3]; 8], law: MotorLaw, seconds:
         enabled_to_the_end: true,
     };
     let (mut tail_sum, mut tail_n) = (0.0f32, 0u32);
-    let ticks = (seconds * piezo_hz).round() as u32;
-    for k in 0..ticks {
-        let v_a = ctrl.piezo_step(sim.film_voltage());
-        sim.set_piezo(v_a);
-        assert!(sim.step(dt_p), "plant diverged");
-        if k % ratio == ratio - 1 {
-            let t = (k / ratio) as f32 * dt_m;
-            let y = Measurement {
-                theta: sim.encoders(),
-                v_f: sim.film_voltage(),
-            };
-            let rep = ctrl.motor_step(t, Some(&y));
-            sim.set_torques(rep.command.tau);
-            sim.set_enable(rep.command.enable);
-            out.enabled_to_the_end &= rep.command.enable;
-            let e = (Vector2::new(sim.x.q.x, sim.x.q.y) - traj.sample(t).q)
-                .abs()
-                .max();
-            out.max_error = out.max_error.max(e);
-            if t >= seconds - 3.0 {
-                tail_sum += e;
-                tail_n += 1;
-            }
-            let tip = sim.model.tip_deflection(&sim.x.q).abs();
-            out.max_tip = out.max_tip.max(tip);
-            out.final_tip = tip;
+    let periods = (seconds * cfg.motor_hz() as f32).round() as u32;
+    for k in 0..periods {
+        let p = rig.period();
+        let t = k as f32 / cfg.motor_hz() as f32;
+        out.enabled_to_the_end &= p.command.enable;
+        let arm = &rig.board.arm;
+        let e = (arm.x.q.xy() - paper.sample(t).q).abs().max();
+        out.max_error = out.max_error.max(e);
+        if t >= seconds - 3.0 {
+            tail_sum += e;
+            tail_n += 1;
         }
+        let tip = arm.model.tip_deflection(&arm.x.q).abs();
+        out.max_tip = out.max_tip.max(tip);
+        out.final_tip = tip;
     }
     out.tail_error = tail_sum / tail_n as f32;
     out
@@ -80,12 +66,12 @@ fn run(piezo_hz: f32, ratio: u32, table: &[[f32; 3]; 8], law: MotorLaw, seconds:
 
 #[test]
 fn qemu_rates_track_and_damp() {
-    for (name, hz, ratio, table) in [
-        ("QEMU (piezo 1 kHz, motor 100 Hz)", 1e3, 10, &GAIN_100HZ),
-        ("hardware (10 kHz, 1 kHz)", 1e4, 10, &GAIN_1KHZ),
+    for (name, board) in [
+        ("QEMU (piezo 1 kHz, motor 100 Hz)", Board::Qemu),
+        ("hardware (10 kHz, 1 kHz)", Board::Hardware),
     ] {
         for law in [MotorLaw::Tracking, MotorLaw::Robust] {
-            let o = run(hz, ratio, table, law, 6.0);
+            let o = run(board, law, 6.0);
             println!(
                 "{name}, {law:?}: max |θ − θ_d| {:.3e} rad, mean over the last 3 s {:.3e} rad, max |tip| {:.3e} m, final |tip| {:.3e} m",
                 o.max_error, o.tail_error, o.max_tip, o.final_tip

@@ -4,6 +4,11 @@
 //! - [`robust`]: robust modal damping (Eqs. 11, 16) and how its modal force reaches the motors.
 //! - [`piezo`]: the piezo patch (Eqs. 17–19) and its rate-feedback law.
 //! - [`motor`]: the complete motor step the firmware and the simulator both call.
+//! - Piezo laws beside the paper's, robust to the film's feedthrough and to the modes the
+//!   controller does not know (issue 35; not wired into the controller yet): [`ppf`] (positive
+//!   position feedback), [`irc`] (integral resonant control), [`cancel`] (rate feedback with the
+//!   identified feedthrough subtracted); [`linear`] has what they share (their linear form and
+//!   the identified loop their design rules start from).
 //!
 //! Underactuation: the laws produce a generalized force over all four coordinates, but the
 //! motors act on the joint rows only (`u = [τ, 0]`, Eq. 6). The joint rows of Eq. 7 become the
@@ -12,7 +17,11 @@
 //! ([`robust::joint_torque_for_modal_accel`]); the piezo patch adds its own modal force
 //! `C_a V_a`.
 
+pub mod cancel;
+pub mod irc;
+pub mod linear;
 pub mod motor;
 pub mod piezo;
+pub mod ppf;
 pub mod robust;
 pub mod tracking;

@@ -84,6 +84,7 @@ impl<T: Real> MotorController<T> {
             tau += joint_torque_for_modal_accel(terms, &a, self.gains.mu);
         }
         if !all_finite([tau.x, tau.y]) {
+            crate::hint::cold();
             return Err(Fault::Singular);
         }
         Ok(MotorOutput {

@@ -31,8 +31,10 @@
 //!   `C` per area whose mid-plane `z_f` lies `z_n − z_f` below the composite neutral axis:
 //!   charge `e31 b (z_n − z_f) Δw'` over capacitance `C b l_a`, with `e31/C = g31 E_f t_f`.
 //!
-//! Neglected: the ceramic's induced axial strain, which the film also sees (a direct
-//! `V_a → V_f` feedthrough of collocated pairs on one section), and the bond layers.
+//! The ceramic's induced axial strain, which the film also sees (a direct `V_a → V_f`
+//! feedthrough of collocated pairs on one section), is [`PiezoMaterial::film_feedthrough`]; the
+//! controller's model and the paper's law leave it out, the truth plant carries it. Neglected:
+//! the bond layers.
 
 use crate::modes::UniformMode;
 use crate::real::Real;
@@ -120,6 +122,19 @@ impl<T: Real> PiezoMaterial<T> {
     /// `k_s = g31 E_f t_f (z_n − z_f) / l_a` [V/rad].
     pub fn film_volts_per_slope(&self, l_a: T) -> T {
         self.g31 * self.e_f * self.t_f * self.film_lever_arm() / l_a
+    }
+
+    /// The film's direct response to the actuator through the section's membrane strain, with
+    /// a perfect bond: `F = −g31 E_f t_f · E_c |d31| / Σ E_i t_i` [V/V] (`docs/model.md`,
+    /// "The film's feedthrough"). About the composite axis the laminate has no membrane-bending
+    /// coupling, so the ceramic's free strain `d31 V/t_c` splits into a bending moment
+    /// (`k_a V`, the modes' input) and a uniform axial strain `ε₀ = E_c b d31 V / Σ E_i b t_i`
+    /// of the whole patched section (no axial load: the link's tip is free). The film reads
+    /// `g31 E_f t_f` volts per unit strain, and on the face opposite the ceramic the bending
+    /// stretches it the other way: in the polarity where `k_a, k_s > 0`, `F < 0`.
+    pub fn film_feedthrough(&self) -> T {
+        let axial = self.e_f * self.t_f + self.e_b * self.t_b + self.e_c * self.t_c;
+        -(self.g31 * self.e_f * self.t_f * self.e_c * self.d31.abs() / axial)
     }
 }
 
@@ -364,18 +379,21 @@ impl<T: Real> PiezoLaw<T> {
     #[inline(always)]
     pub fn step_finite(&mut self, v_f: T) -> T {
         let v = self.filter.advance(v_f);
-        // Two comparisons on every path but NaN's, as many as the symmetric law's `|v| ≤ v_max`
-        // took with its `abs`.
-        #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
-        if !(v <= self.v_max) {
-            if v > self.v_max {
-                return self.v_max;
-            }
-            // NaN: the first sample after a reset. The filter restarts from it with output 0.
-            self.filter.y = T::zero();
-            return T::zero();
+        // The window's top, then its bottom: one comparison for the top, and the bottom's one
+        // comparison sorts out the rest (below, inside, or unordered: NaN).
+        if v > self.v_max {
+            return self.v_max;
         }
-        if v < self.v_min { self.v_min } else { v }
+        if v >= self.v_min {
+            return v;
+        }
+        if v < self.v_min {
+            return self.v_min;
+        }
+        // NaN: the first sample after a reset. The filter restarts from it with output 0.
+        crate::hint::cold();
+        self.filter.y = T::zero();
+        T::zero()
     }
 
     /// Forgets the filter's history.

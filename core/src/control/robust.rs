@@ -27,6 +27,8 @@ use crate::params::Gains;
 use crate::real::Real;
 
 /// Requested modal acceleration `a_Δ = −D'_Δ δ̇` [√kg·m/s² per unit modal mass] at time `t` [s].
+/// Inlined into the motor law, its one caller on the hot path.
+#[inline(always)]
 pub fn modal_damping_accel<T: Real>(
     gains: &Gains<T>,
     t: T,

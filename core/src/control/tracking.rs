@@ -87,6 +87,8 @@ pub fn eq7_joints<T: Real>(
 
 /// The motor torques of Eq. 7 from the state: what a plain implementation of the law computes,
 /// `(q, q̇, q_d, q̇_d, q̈_d) → (τ1, τ2)`, with one `sin`/`cos` of θ2 and the structure of `B`.
+/// Inlined, like its parts, into its callers.
+#[inline(always)]
 pub fn eq7_torques<T: Real>(
     model: &Model<T>,
     gains: &Gains<T>,
@@ -94,8 +96,11 @@ pub fn eq7_torques<T: Real>(
     qd: &Vector4<T>,
     target: &JointTarget<T>,
 ) -> Vector2<T> {
+    // The terms first: their sin/cos of θ2 needs only θ2, so the reference's inputs are not
+    // loaded into registers (and saved across the polynomial) before it.
+    let terms = model.terms_inline(q);
     let r = Reference::new(&gains.lambda, q, qd, target);
-    eq7_joints(&model.terms(q), qd, &gains.kp, &r)
+    eq7_joints(&terms, qd, &gains.kp, &r)
 }
 
 /// Eq. 7 from the state: `u = B q̈_r + C q̇_r + K_e q_d + D q̇_r − K_p s`.

@@ -40,9 +40,8 @@ const ADC_POLLS: u32 = 300;
 
 /// The piezo amplifier's input range: 0–3.3 V at its input is −200…+200 V at the patch.
 const PIEZO_FULL_SCALE_V: f32 = 200.0;
-/// What the DAC's output buffer can reach (0.2 V to VDDA − 0.2 V, datasheet), in volts at the
-/// patch: (3.1 − 1.65) / 1.65 × 200 V = 175.8 V, rounded down. The controller's limit.
-pub const PIEZO_V_MAX: f32 = 175.0;
+// What the DAC's output buffer can reach, ±175 V at the patch, is the controller's piezo window
+// on this board: `flexarm_machine::config::HARDWARE_PIEZO_V_MAX`.
 
 use super::wiring::{COUNTS_PER_REV, ENCODER_REVERSED, FILM_INVERTED};
 

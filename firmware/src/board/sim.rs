@@ -1,6 +1,7 @@
-//! The QEMU board: the arm simulated inside the firmware (the core's model in `f32`, RK4, one
-//! step per piezo period of the firmware's clock), with quantized encoders and film ADC. Its
-//! enable and fault lines are in-memory `embedded-hal` pins, so the same pin logic runs as on
+//! The QEMU board: the arm simulated inside the firmware (`flexarm_machine::simulated`: the
+//! core's model in `f32`, RK4, quantized encoders and film ADC, brakes while disabled), stepped
+//! once per piezo period, with the wiring of `super::wiring` and the test builds' injections.
+//! Its enable and fault lines are in-memory `embedded-hal` pins, so the same pin logic runs as on
 //! hardware.
 
 use core::convert::Infallible;
@@ -8,7 +9,7 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
 
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use flexarm_core::Vector2;
-use flexarm_core::simarm::SimArm;
+use flexarm_machine::simulated::SimulatedArm;
 
 use super::{Board, wiring};
 
@@ -115,25 +116,13 @@ impl InputPin for SimPin {
     }
 }
 
-/// Time constant of the joints' brakes while the amplifiers are off [s].
-const BRAKE_TAU: f32 = 0.05;
-
-/// Clock counts in one piezo period (`crate::clock`: 1 ns each under QEMU).
-const PIEZO_PERIOD_COUNTS: u32 = crate::clock::HZ / crate::config::PIEZO_HZ;
-/// The most piezo periods one tick catches up (see [`SimBoard::tick`]).
-const MAX_CATCH_UP: u32 = 20;
-
 /// The simulated arm and its lines.
 pub struct SimBoard {
-    /// The plant and its sensors.
-    pub arm: SimArm<f32>,
-    /// Plant step: one piezo period [s].
-    pub dt: f32,
+    /// The plant, its sensors and its step.
+    pub sim: SimulatedArm,
     enable: SimPin,
     /// Amplifier fault line, active low (high = healthy).
     fault_n: SimPin,
-    /// Set when the plant left its domain (a failed run).
-    pub diverged: bool,
     /// The verdict run's measurements.
     pub run: crate::verdict::RunCheck,
     /// Plant steps since boot (the injection builds' clock).
@@ -141,26 +130,18 @@ pub struct SimBoard {
     /// Joint 2's reading once frozen (`inject-frozen-encoder`).
     #[cfg_attr(not(feature = "inject-frozen-encoder"), allow(dead_code))]
     frozen: Option<f32>,
-    /// The clock at the last tick.
-    last_tick: Option<u32>,
-    /// Clock counts passed and not yet stepped (less than a piezo period after a tick).
-    owed: u32,
 }
 
 impl SimBoard {
-    /// A board around `arm`, stepped every `dt` [s].
-    pub fn new(arm: SimArm<f32>, dt: f32) -> Self {
+    /// A board around `sim`.
+    pub fn new(sim: SimulatedArm) -> Self {
         Self {
-            arm,
-            dt,
+            sim,
             enable: SimPin(false),
             fault_n: SimPin(true),
-            diverged: false,
             run: crate::verdict::RunCheck::default(),
             steps: 0,
             frozen: None,
-            last_tick: None,
-            owed: 0,
         }
     }
 }
@@ -170,17 +151,7 @@ impl SimBoard {
     #[inline(never)]
     fn step_plant(&mut self) {
         self.steps = self.steps.saturating_add(1);
-        if !self.arm.step(self.dt) {
-            self.diverged = true;
-        }
-        // With the amplifiers off the joints brake, as geared drives with holding brakes do:
-        // their speeds decay with a 50 ms time constant, so a disarmed or faulted arm comes to
-        // rest instead of coasting forever on the model's frictionless joints.
-        if !self.arm.enabled() {
-            let keep = 1.0 - self.dt / BRAKE_TAU;
-            self.arm.x.qd.x *= keep;
-            self.arm.x.qd.y *= keep;
-        }
+        self.sim.step();
     }
 
     /// Asserts (`true`) or releases the simulated amplifiers' fault line (the link-session
@@ -193,18 +164,18 @@ impl SimBoard {
 impl Board for SimBoard {
     fn encoders(&mut self) -> Vector2<f32> {
         #[allow(unused_mut)]
-        let mut theta = self.arm.encoders();
+        let mut theta = self.sim.arm.encoders();
         #[cfg(feature = "inject-reversed-encoder")]
         {
             theta.x = -theta.x;
         }
         #[cfg(feature = "inject-frozen-encoder")]
-        if self.steps as f32 * self.dt >= 1.0 {
+        if self.steps as f32 * self.sim.dt >= 1.0 {
             theta.y = *self.frozen.get_or_insert(theta.y);
         }
         // The configured wiring, as the hardware board applies it: the simulated encoders
         // count `counts_per_rev` (16384) a revolution.
-        let counts = self.arm.sensors.counts_per_rev;
+        let counts = self.sim.arm.sensors.counts_per_rev;
         let sign = |r: bool| if r { -1.0 } else { 1.0 };
         Vector2::new(
             theta.x * sign(wiring::ENCODER_REVERSED[0]) * (counts / wiring::COUNTS_PER_REV[0]),
@@ -212,7 +183,7 @@ impl Board for SimBoard {
         )
     }
     fn film_voltage(&mut self) -> f32 {
-        let v = self.arm.film_voltage();
+        let v = self.sim.arm.film_voltage();
         // A film wired the other way round (a test build), then the configured wiring.
         let v = if cfg!(feature = "inject-film-reversed") {
             -v
@@ -223,11 +194,11 @@ impl Board for SimBoard {
     }
     fn set_torques(&mut self, tau: Vector2<f32>) {
         OUTPUTS.set_torques(tau);
-        self.arm.set_torques(tau);
+        self.sim.arm.set_torques(tau);
     }
     fn set_piezo(&mut self, v_a: f32) {
         OUTPUTS.v_a.store(v_a.to_bits(), Relaxed);
-        self.arm.set_piezo(v_a);
+        self.sim.arm.set_piezo(v_a);
     }
     fn set_enable(&mut self, on: bool) {
         let Ok(()) = if on {
@@ -237,34 +208,19 @@ impl Board for SimBoard {
         };
         let Ok(level) = self.enable.is_high();
         OUTPUTS.set_enable(level);
-        self.arm.set_enable(level);
+        self.sim.arm.set_enable(level);
     }
     fn amplifier_fault(&mut self) -> bool {
         let Ok(low) = self.fault_n.is_low();
         low
     }
     fn motor_period(&mut self, t: f32) {
-        self.run.observe(&self.arm, self.diverged, t);
+        self.run.observe(&self.sim.arm, self.sim.diverged, t);
     }
-    /// The plant follows the firmware's clock (`crate::clock`, QEMU's virtual time): one step
-    /// per piezo period of it that has passed, the remainder carried to the next tick. QEMU's
-    /// piezo timer comes 3 % late (docs/firmware.md: 970 interrupts per 100 motor periods), so
-    /// one step per interrupt left the arm 3 % behind the motor loop's time, which the modes
-    /// and inertias identified on it showed (docs/identification.md); and QEMU's real-time
-    /// mode (`-icount sleep=on`: `scripts/qemu-serve`, the link's flood session) drops timer
-    /// interrupts under the host's load, which left the arm standing still for up to half of
-    /// the board's time. At most [`MAX_CATCH_UP`] steps a tick.
+    /// One plant step per piezo period. The board's motor period is ten of its piezo periods
+    /// (the piezo loop starts it, `crate::app::piezo_loop`), so the plant, the piezo loop and
+    /// the motor loop keep one time: the plant's.
     fn tick(&mut self) {
-        let now = crate::clock::now();
-        let elapsed = self
-            .last_tick
-            .map_or(PIEZO_PERIOD_COUNTS, |last| now.wrapping_sub(last));
-        self.last_tick = Some(now);
-        let owed = self.owed.saturating_add(elapsed);
-        let periods = owed / PIEZO_PERIOD_COUNTS;
-        self.owed = owed % PIEZO_PERIOD_COUNTS;
-        for _ in 0..periods.min(MAX_CATCH_UP) {
-            self.step_plant();
-        }
+        self.step_plant();
     }
 }

@@ -6,7 +6,8 @@
 //! corrupted frame and an oversized frame on the line, after which a ping is still answered; a
 //! move refused while disarmed; arm; moves refused whole with their reasons (out of reach, too
 //! fast); a trapezoid move, its end awaited, and its tracking error within three times what the
-//! host simulation of the same move shows; parameters read, written and refused at rest; a long
+//! host simulation of the same move shows; the session so far replayed on the host's rig to the
+//! bit (`replay`); parameters read, written and refused at rest; a long
 //! move (another move and a parameter change refused while it runs) stopped on its way, which
 //! decelerates and holds short of its target; a move stopped by the link watchdog while the host
 //! is silent; the paper's circle, refused where the tip is not on it, then run from its start
@@ -32,7 +33,12 @@ use flexarm_sim::sim::{SimConfig, simulate};
 /// V_f (1), loads (2).
 const CHANNELS: u16 = Channels::ALL;
 /// Values per frame of the session's channels.
-const VALUES: usize = 12;
+const VALUES: usize = Channels(CHANNELS).values();
+
+/// The `j`-th value of the channel `bit` in `f`, by name (NaN when the frame lacks it).
+fn v(f: &Telemetry, bit: u16, j: usize) -> f32 {
+    f.value(bit, j).unwrap_or(f32::NAN)
+}
 
 struct Link {
     stream: TcpStream,
@@ -138,23 +144,22 @@ fn trapezoid(target: [f32; 2], move_time: f32, ramp_time: f32) -> Command {
 }
 
 /// The largest |θ − θ_d| of `traj` from rest at its start on the host, with the piezo gain
-/// `k_c` [s]: the QEMU board's rates (motor 100 Hz, piezo 1 kHz, plant step 1 ms), its sensors
-/// (16384-count encoders, 12-bit film ADC, no noise or delay) and the firmware's controller with
-/// its observer. A motion check that trips on the host is an error: the firmware would fault.
+/// `k_c` [s]: the QEMU board's firmware (the generated `QEMU` configuration: motor 100 Hz, piezo
+/// 1 kHz, its controller, observer and drive) on the host's rig, on the controller's model in
+/// `f64` (plant step 1 ms) through the QEMU board's sensors (16384-count encoders, 12-bit film
+/// ADC, no noise or delay). A motion check that trips on the host is an error: the firmware
+/// would fault.
 fn simulated_error(traj: &JointTrajectory<f32>, k_c: f32) -> Result<f64, String> {
     let move_time = match traj {
-        JointTrajectory::Trapezoid(t) => t.profile.duration(),
-        JointTrajectory::Circle(c) => c.profile.duration(),
-        JointTrajectory::Cubic(c) => c.duration,
         JointTrajectory::Hold(_) => 1.0,
+        moving => moving.duration(),
     };
+    let mut qemu = flexarm_tests::firmware(flexarm_link::msg::Board::Qemu);
+    qemu.piezo.k_c = k_c;
     let cfg = SimConfig {
-        piezo: Some(flexarm_core::control::piezo::PiezoGains {
-            k_c,
-            ..Default::default()
-        }),
         duration: f64::from(move_time) + 1.0,
         tail_window: 1.0,
+        machine: Some(qemu),
         ..SimConfig::board(100.0, 1000.0)
     };
     let (s, _) = simulate(&cfg, traj, false).map_err(|e| e.to_string())?;
@@ -203,7 +208,7 @@ fn circle(link: &mut Link) -> Result<(), String> {
     let during = &link.telemetry[first..];
     let max_error = during
         .iter()
-        .flat_map(|f| f.values.iter().take(2))
+        .flat_map(|f| [v(f, Channels::ERROR, 0), v(f, Channels::ERROR, 1)])
         .fold(0.0f32, |m, e| m.max(e.abs()));
     let host = simulated_error(&JointTrajectory::Circle(c), 3.162)?;
     let bound = 3.0 * host as f32;
@@ -213,6 +218,89 @@ fn circle(link: &mut Link) -> Result<(), String> {
         format!(
             "max |θ − θ_d| {max_error:.2e} rad over {} frames; host {host:.2e} rad, bound 3× = {bound:.2e}",
             during.len()
+        ),
+    )
+}
+
+/// The bits of the values of `f` the replay compares, by name: every channel but the loads
+/// (errors, θ̂, δ̂, τ, V_a, V_f).
+fn replayed(f: &Telemetry) -> Vec<u32> {
+    flexarm_link::msg::CHANNELS
+        .iter()
+        .filter(|c| c.bit != Channels::LOAD)
+        .flat_map(|c| (0..c.width).map(move |j| v(f, c.bit, j).to_bits()))
+        .collect()
+}
+
+/// Bit-identical replay: the session's frames from its subscription to the end of its first
+/// move, every motor period of them, reproduced by the host's rig (`flexarm_sim::rig`) running the
+/// QEMU board's firmware (its generated configuration, whose hash must be the handshake's
+/// `params_hash`) on the QEMU board's simulated arm, both from boot: every compared value
+/// (`replayed`) of every frame equal to the bit. The commands that acted before the move's end:
+/// arm and the move (the subscription, the refused moves, the ping and the status acted on
+/// nothing). The arm rests exactly at its boot pose until the move (every value of every frame
+/// before it 0, checked), so the tick of the arm does not matter, and the move's tick is the
+/// first frame with a torque (its first period's feed-forward; its reference still the held
+/// pose).
+fn replay(link: &Link, params_hash: u32, mv: Command) -> Result<(), String> {
+    let cfg = flexarm_tests::firmware(Board::Qemu);
+    check(
+        cfg.hash() == params_hash,
+        "the replay's configuration is the firmware's",
+        format!("{:08x}", cfg.hash()),
+    )?;
+    let frames = &link.telemetry;
+    let moved = frames
+        .iter()
+        .position(|f| v(f, Channels::TAU, 0) != 0.0 || v(f, Channels::TAU, 1) != 0.0)
+        .ok_or("no torque in the session's first move")?;
+    let at_rest = frames[..moved]
+        .iter()
+        .all(|f| replayed(f).iter().all(|b| f32::from_bits(*b) == 0.0));
+    let (first, last, begin) = (
+        frames[0].tick,
+        frames[frames.len() - 1].tick,
+        frames[moved].tick,
+    );
+    let contiguous = frames.windows(2).all(|w| w[1].tick == w[0].tick + 1);
+    check(
+        at_rest && contiguous,
+        "the recording: every period from the subscription, the arm at rest until the move",
+        format!("ticks {first}–{last}, the move from {begin}"),
+    )?;
+    let mut rig = flexarm_tests::rig(cfg, [0.0, 0.0]);
+    for command in [
+        Command::Subscribe {
+            decimation: 1,
+            channels: Channels(CHANNELS),
+        },
+        Command::Arm,
+    ] {
+        rig.answer(command);
+    }
+    let mut host = std::collections::BTreeMap::new();
+    while rig.now().0 <= last {
+        if rig.now().0 == begin {
+            let r = rig.answer(mv.clone());
+            if r != Reply::Done {
+                return Err(format!("the replay's move: {r:?}"));
+            }
+        }
+        rig.period();
+        for f in rig.take().into_iter().filter_map(|(_, f)| f) {
+            host.insert(f.tick, replayed(&f));
+        }
+    }
+    let differ = frames
+        .iter()
+        .filter(|f| host.get(&f.tick).is_none_or(|bits| *bits != replayed(f)))
+        .count();
+    check(
+        differ == 0,
+        "the host's rig replays the firmware's first move bit for bit (errors, estimates, torques, piezo and film voltages)",
+        format!(
+            "{} frames (ticks {first}–{last}, the move from {begin}), {differ} differ",
+            frames.len()
         ),
     )
 }
@@ -233,103 +321,62 @@ const PATH: [(f32, f32, f32); 12] = [
     (0.1, 0.0, 0.2),
 ];
 
-/// The largest |θ̂ − θ_d| of [`PATH`] from rest at (0, 0) in the core's closed loop on the host, as
-/// the QEMU board runs it: the paper's controller with the 100 Hz observer and gains
-/// (`Gains::default_for(100)`), `k_c` = 3.162 s,
-/// the drive, and the core's simulated arm with the QEMU board's sensors, stepped every 1 ms.
+/// The largest |θ̂ − θ_d| of [`PATH`] from rest at (0, 0) on the host, as the QEMU board runs it:
+/// its firmware (the generated `QEMU` configuration) on the host's rig (`flexarm_sim::rig`) with
+/// the QEMU board's simulated arm, given the session's own commands (`k_c` = 3.162 s, arm, the
+/// waypoints in chunks, the move).
 fn path_simulation() -> Result<f32, String> {
-    use flexarm_core::control::motor::MotorLaw;
-    use flexarm_core::controller::Controller;
-    use flexarm_core::drive::{Drive, MoveLimits, MoveRequest};
-    use flexarm_core::observer::Measurement;
-    use flexarm_core::observer_gains::{GAIN_100HZ, gain};
-    use flexarm_core::simarm::{SensorModel, SimArm};
-    use flexarm_core::time::Ticks;
-    let mut ctrl = Controller::paper(
-        MotorLaw::Tracking,
-        JointTrajectory::Hold(nalgebra::Vector2::zeros()),
-        1e-3,
-        1e-2,
-        gain(&GAIN_100HZ),
+    let mut rig = flexarm_tests::rig(
+        flexarm_tests::firmware(flexarm_link::msg::Board::Qemu),
+        [0.0, 0.0],
     );
-    // The QEMU board's gains for its 100 Hz loop.
-    ctrl.motor.gains = flexarm_core::params::Gains::default_for(100);
-    let mut tuning = flexarm_core::tuning::Tuning {
-        piezo: flexarm_core::control::piezo::PiezoGains::default(),
-        piezo_period: 1e-3,
-        tau_ceiling: ctrl.motor.limits.tau_max,
-        v_a_ceiling: ctrl.motor.limits.v_a_max,
+    let ask = |rig: &mut flexarm_sim::rig::Rig<_>, command: Command| match rig.answer(command) {
+        Reply::Done => Ok(()),
+        r => Err(format!("the host's rig refused the path: {r:?}")),
     };
-    tuning
-        .set(
-            &mut ctrl,
-            flexarm_core::drive::Mode::Disarmed,
-            flexarm_core::tuning::Tunable::Kc,
-            3.162,
-        )
-        .map_err(|e| format!("{e:?}"))?;
-    let mut arm = SimArm::new(
-        ctrl.motor.model,
-        ctrl.patch,
-        nalgebra::Vector4::zeros(),
-        SensorModel::default(),
-    );
-    ctrl.reset_observer(arm.encoders());
-    let mut drive = Drive::new(&mut ctrl, 100, Ticks(0), MoveLimits::default());
-    let mut now = Ticks(0);
-    drive.arm(&mut ctrl, now).map_err(|e| format!("{e:?}"))?;
-    for (k, w) in path_waypoints().iter().enumerate() {
-        drive
-            .load_waypoints(&ctrl, k, &[*w])
-            .map_err(|e| format!("{e:?}"))?;
+    ask(&mut rig, Command::Set(Param::Kc, 3.162))?;
+    ask(&mut rig, Command::Arm)?;
+    for (k, chunk) in PATH
+        .chunks(flexarm_link::msg::WAYPOINTS_PER_CHUNK)
+        .enumerate()
+    {
+        ask(
+            &mut rig,
+            waypoints_chunk((k * flexarm_link::msg::WAYPOINTS_PER_CHUNK) as u16, chunk),
+        )?;
     }
-    let total = drive
-        .start(&mut ctrl, now, &MoveRequest::Waypoints { count: 12 })
-        .map_err(|e| format!("{e:?}"))?;
+    ask(
+        &mut rig,
+        Command::Move(Move::Waypoints {
+            count: PATH.len() as u16,
+        }),
+    )?;
+    let total: f32 = PATH.iter().map(|p| p.2).sum();
     let mut worst = 0.0f32;
     for _ in 0..(total * 100.0) as usize + 50 {
-        for _ in 0..10 {
-            let v = ctrl.piezo_step(arm.film_voltage());
-            arm.set_piezo(v);
-            arm.step(1e-3);
-        }
-        let y = Measurement {
-            theta: arm.encoders(),
-            v_f: arm.film_voltage(),
-        };
-        let report = drive.step(&mut ctrl, now, Some(&y));
-        arm.set_torques(report.command.tau);
-        arm.set_enable(report.command.enable);
-        if let Some(l) = report.law {
-            worst = worst.max(l.error.x.abs().max(l.error.y.abs()));
-        }
-        now = now.next();
+        let p = rig.period();
+        worst = worst.max(p.error.abs().max());
     }
     Ok(worst)
 }
 
-/// [`PATH`] in the core's type.
-fn path_waypoints() -> Vec<flexarm_core::drive::Waypoint<f32>> {
-    PATH.iter()
-        .map(|&(a, b, dt)| flexarm_core::drive::Waypoint {
-            theta: nalgebra::Vector2::new(a, b),
-            dt,
-        })
-        .collect()
-}
-
-/// A waypoint path over the link, from (0, 0): uploaded in two chunks (a chunk that leaves a
-/// gap and a move that names more waypoints than were uploaded are refused), then run and
-/// tracked within three times the host's run of the same path in the core's closed loop (4.5 s:
-/// at least 40 telemetry frames at the QEMU board's 10 records a second).
-fn waypoints(link: &mut Link) -> Result<(), String> {
-    let chunk = |first: u16, pts: &[(f32, f32, f32)]| Command::Waypoints {
+/// A chunk of waypoints of the link from `first`.
+fn waypoints_chunk(first: u16, pts: &[(f32, f32, f32)]) -> Command {
+    Command::Waypoints {
         first,
         points: pts
             .iter()
             .map(|&(a, b, dt)| Waypoint { theta: [a, b], dt })
             .collect(),
-    };
+    }
+}
+
+/// A waypoint path over the link, from (0, 0): uploaded in two chunks (a chunk that leaves a
+/// gap and a move that names more waypoints than were uploaded are refused), then run and
+/// tracked within three times the host's run of the same path on the host's rig (4.5 s:
+/// at least 40 telemetry frames at the QEMU board's 10 records a second).
+fn waypoints(link: &mut Link) -> Result<(), String> {
+    let chunk = waypoints_chunk;
     let go = Command::Move(Move::Waypoints { count: 12 });
     let r = link.ask(chunk(1, &PATH[..8]))?;
     check(
@@ -362,11 +409,11 @@ fn waypoints(link: &mut Link) -> Result<(), String> {
     let during = &link.telemetry[first..];
     let max_error = during
         .iter()
-        .flat_map(|f| f.values.iter().take(2))
+        .flat_map(|f| [v(f, Channels::ERROR, 0), v(f, Channels::ERROR, 1)])
         .fold(0.0f32, |m, e| m.max(e.abs()));
-    let end = during
-        .last()
-        .map_or([9.0; 2], |f| [f.values[2], f.values[3]]);
+    let end = during.last().map_or([9.0; 2], |f| {
+        [v(f, Channels::THETA, 0), v(f, Channels::THETA, 1)]
+    });
     let host = path_simulation()?;
     let bound = 3.0 * host;
     check(
@@ -543,12 +590,12 @@ fn flood(link: &mut Link) -> Result<(), String> {
     let max_error = during
         .iter()
         .filter(|f| f.tick <= move_end)
-        .flat_map(|f| f.values.iter().take(2))
+        .flat_map(|f| [v(f, Channels::ERROR, 0), v(f, Channels::ERROR, 1)])
         .fold(0.0f32, |m, e| m.max(e.abs()));
     let misses = |s: &flexarm_link::msg::Status| s.loads[0].misses + s.loads[1].misses;
-    let end = during
-        .last()
-        .map_or([9.0; 2], |f| [f.values[2], f.values[3]]);
+    let end = during.last().map_or([9.0; 2], |f| {
+        [v(f, Channels::THETA, 0), v(f, Channels::THETA, 1)]
+    });
     check(
         rate >= 10_000.0 && after.rx_lost == before.rx_lost,
         "the flood kept the line full at QEMU's pace, none of it lost",
@@ -594,8 +641,8 @@ fn fault_recorder(link: &mut Link) -> Result<(), String> {
         let n = link.telemetry.len();
         let still = n > 3
             && link.telemetry[n - 3..].windows(2).all(|w| {
-                (w[1].values[2] - w[0].values[2]).abs() < 1e-4
-                    && (w[1].values[3] - w[0].values[3]).abs() < 1e-4
+                (v(&w[1], Channels::THETA, 0) - v(&w[0], Channels::THETA, 0)).abs() < 1e-4
+                    && (v(&w[1], Channels::THETA, 1) - v(&w[0], Channels::THETA, 1)).abs() < 1e-4
             });
         if still {
             break;
@@ -858,7 +905,7 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
     let during = &link.telemetry[first..];
     let max_error = during
         .iter()
-        .flat_map(|f| f.values.iter().take(2))
+        .flat_map(|f| [v(f, Channels::ERROR, 0), v(f, Channels::ERROR, 1)])
         .fold(0.0f32, |m, e| m.max(e.abs()));
     let traj = JointTrajectory::Trapezoid(Trapezoid {
         start: nalgebra::Vector2::zeros(),
@@ -876,6 +923,8 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
         ),
     )?;
 
+    replay(&link, h.params_hash, trapezoid(target, move_time, ramp))?;
+
     // Parameters at rest: read, written, read back; refused out of range or unknown.
     let k_c = link.ask(Command::Get(Param::Kc))?;
     let r = link.ask(Command::Set(Param::Kc, 3.162))?;
@@ -889,9 +938,9 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
     )?;
     for (p, v, why) in [
         (Param::VaMax, 1e6, Refusal::OutOfRange),
-        (Param::Kp(0), -1.0, Refusal::OutOfRange),
+        (Param::Kp0, -1.0, Refusal::OutOfRange),
         (Param::CutoffHz, f32::NAN, Refusal::OutOfRange),
-        (Param::Kp(7), 1.0, Refusal::UnknownParam),
+        (Param::LinkTimeout, 1e5, Refusal::OutOfRange),
     ] {
         let r = link.ask(Command::Set(p, v))?;
         check(
@@ -928,7 +977,7 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
         "a parameter change while it runs is refused",
         format!("{r:?}"),
     )?;
-    let theta1 = |l: &Link| l.telemetry.last().map_or(1.0, |f| f.values[2]);
+    let theta1 = |l: &Link| l.telemetry.last().map_or(1.0, |f| v(f, Channels::THETA, 0));
     let start = Instant::now();
     while theta1(&link) > 0.75 {
         if start.elapsed() > Duration::from_secs(30) {
@@ -951,10 +1000,9 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
         link.ask(Command::Ping)?;
         std::thread::sleep(Duration::from_millis(2));
     }
-    let held = link
-        .telemetry
-        .last()
-        .map_or([0.0; 2], |f| [f.values[2], f.values[3]]);
+    let held = link.telemetry.last().map_or([0.0; 2], |f| {
+        [v(f, Channels::THETA, 0), v(f, Channels::THETA, 1)]
+    });
     check(
         held[0] > 0.1 && held[0] < 0.75 && held[1] < -0.05,
         "the stop holds short of the move's target (0, 0), past 0.75 rad where it was given",
@@ -977,10 +1025,9 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
     let Reply::Status(s) = r else {
         return Err(format!("status: {r:?}"));
     };
-    let reached = link
-        .telemetry
-        .last()
-        .map_or([0.0; 2], |f| [f.values[2], f.values[3]]);
+    let reached = link.telemetry.last().map_or([0.0; 2], |f| {
+        [v(f, Channels::THETA, 0), v(f, Channels::THETA, 1)]
+    });
     check(
         s.mode == Mode::Armed && s.link_stops == 1 && reached[0] > 0.05 && reached[0] < 0.75,
         "the link watchdog stops a move whose host fell silent",
@@ -1024,9 +1071,9 @@ fn run(port: u16, flood_session: bool) -> Result<(), String> {
         .count();
     let (mut load, mut v_f) = ([0.0f32; 2], 0.0f32);
     for f in t {
-        load[0] = load[0].max(f.values[10]);
-        load[1] = load[1].max(f.values[11]);
-        v_f = v_f.max(f.values[9].abs());
+        load[0] = load[0].max(v(f, Channels::LOAD, 0));
+        load[1] = load[1].max(v(f, Channels::LOAD, 1));
+        v_f = v_f.max(v(f, Channels::V_F, 0).abs());
     }
     check(
         gaps == 0

@@ -1,126 +1,60 @@
-//! Motion safety in closed loop (`flexarm_core::motion` through the drive), with the core's
-//! simulated arm at the hardware rates (motor loop 1 kHz, piezo loop 10 kHz) and faults injected
-//! between the arm and the controller: a reversed encoder, a frozen encoder, a rigid obstacle,
+//! Motion safety in closed loop (`flexarm_core::motion` through the drive), the hardware
+//! board's firmware on the host's rig (`flexarm_sim::rig`: motor loop 1 kHz, piezo loop 10 kHz)
+//! with the QEMU board's simulated arm and faults injected between the arm and the controller
+//! (`flexarm_tests::TestArm`): a reversed encoder, a frozen encoder, a rigid obstacle,
 //! a reference that runs into the end of the range, a stalled motor heating up. While the
 //! amplifiers are off the joints brake with a 50 ms time constant (the QEMU board's model of a
 //! geared drive's holding brake), so a coast distance is finite.
 
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 
-use flexarm_core::control::motor::MotorLaw;
-use flexarm_core::controller::Controller;
-use flexarm_core::drive::{Drive, Mode, MoveLimits, MoveRequest};
+use flexarm_core::drive::{Mode, MoveRequest};
 use flexarm_core::observer::Measurement;
-use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
-use flexarm_core::simarm::{SensorModel, SimArm};
-use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
 use flexarm_core::{Fault, Vector2, Vector4};
-
-/// What is injected between the arm and the controller.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Injection {
-    None,
-    /// Joint 1's encoder counts the other way.
-    Reversed,
-    /// Joint 2's encoder stops at its reading from this time [s].
-    FrozenFrom(f32),
-    /// Joint 1 stops at this angle [rad] (a rigid obstacle: its speed is zeroed there).
-    Wall(f32),
-}
+use flexarm_link::msg::Board;
+use flexarm_sim::rig::Rig;
+use flexarm_tests::{Injection, TestArm, firmware, test_rig};
 
 struct Bench {
-    ctrl: Controller<f32>,
-    drive: Drive<f32>,
-    arm: SimArm<f32>,
-    now: Ticks,
-    injection: Injection,
-    frozen: Option<f32>,
-    /// The first fault's time [s], the joints' true angles then [rad], the largest true speed
-    /// before it [rad/s].
+    rig: Rig<TestArm>,
+    /// The first fault's time [s], the joints' true angles then [rad].
     fault_at: Option<(f32, Vector2<f32>)>,
+    /// The largest true speed before it [rad/s].
     peak_speed: f32,
 }
 
 impl Bench {
+    /// The hardware board's firmware (piezo 10 kHz, motor 1 kHz) on the simulated arm at rest
+    /// at 0.
     fn new() -> Self {
-        let mut ctrl = Controller::paper(
-            MotorLaw::Tracking,
-            JointTrajectory::Trapezoid(Trapezoid::paper()),
-            1e-4,
-            1e-3,
-            gain(&GAIN_1KHZ),
-        );
-        let arm = SimArm::new(
-            ctrl.motor.model,
-            ctrl.patch,
-            Vector4::zeros(),
-            SensorModel::default(),
-        );
-        ctrl.reset_observer(arm.encoders());
-        let drive = Drive::new(&mut ctrl, 1000, Ticks(0), MoveLimits::default());
         Self {
-            ctrl,
-            drive,
-            arm,
-            now: Ticks(0),
-            injection: Injection::None,
-            frozen: None,
+            rig: test_rig(firmware(Board::Hardware), [0.0, 0.0], Injection::None),
             fault_at: None,
             peak_speed: 0.0,
         }
     }
 
     fn t(&self) -> f32 {
-        self.now.0 as f32 * 1e-3
+        self.rig.motor.now().0 as f32 * 1e-3
     }
 
     fn theta(&self) -> Vector2<f32> {
-        Vector2::new(self.arm.x.q.x, self.arm.x.q.y)
+        self.rig.board.sim.arm.x.q.xy()
     }
 
+    /// The encoders as the controller reads them (the injection applied).
     fn encoders(&mut self) -> Vector2<f32> {
-        let mut th = self.arm.encoders();
-        match self.injection {
-            Injection::Reversed => th.x = -th.x,
-            Injection::FrozenFrom(t0) if self.t() >= t0 => {
-                th.y = *self.frozen.get_or_insert(th.y);
-            }
-            _ => {}
-        }
-        th
+        flexarm_machine::Board::encoders(&mut self.rig.board)
     }
 
+    /// One motor period; the first fault's time and pose, and the peak speed before it.
     fn period(&mut self) {
-        for _ in 0..10 {
-            let v = self.ctrl.piezo_step(self.arm.film_voltage());
-            self.arm.set_piezo(v);
-            assert!(self.arm.step(1e-4));
-            if let Injection::Wall(at) = self.injection
-                && self.arm.x.q.x >= at
-            {
-                self.arm.x.q.x = at;
-                self.arm.x.qd.x = self.arm.x.qd.x.min(0.0);
-            }
-            if !self.arm.enabled() {
-                let keep = 1.0 - 1e-4 / 0.05;
-                self.arm.x.qd.x *= keep;
-                self.arm.x.qd.y *= keep;
-            }
-        }
-        let y = Measurement {
-            theta: self.encoders(),
-            v_f: self.arm.film_voltage(),
-        };
-        let r = self.drive.step(&mut self.ctrl, self.now, Some(&y));
-        self.arm.set_torques(r.command.tau);
-        self.arm.set_enable(r.command.enable);
-        self.now = self.now.next();
+        self.rig.period();
         if self.fault_at.is_none() {
-            self.peak_speed = self
-                .peak_speed
-                .max(self.arm.x.qd.x.abs().max(self.arm.x.qd.y.abs()));
-            if self.ctrl.fault().is_some() {
+            let qd = self.rig.board.sim.arm.x.qd;
+            self.peak_speed = self.peak_speed.max(qd.x.abs().max(qd.y.abs()));
+            if self.rig.control.ctrl.fault().is_some() {
                 self.fault_at = Some((self.t(), self.theta()));
             }
         }
@@ -144,12 +78,10 @@ fn trapezoid(target: [f32; 2], move_time: f32, ramp_time: f32) -> MoveRequest<f3
 /// Arms, holds 0.1 s, starts the move `(1, 1)` rad in 2 s, runs until `seconds` after.
 fn moving(injection: Injection, seconds: f32) -> Bench {
     let mut b = Bench::new();
-    b.injection = injection;
-    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.rig.board.injection = injection;
+    b.rig.arm().unwrap();
     b.run(0.1);
-    b.drive
-        .start(&mut b.ctrl, b.now, &trapezoid([1.0, 1.0], 2.0, 0.5))
-        .unwrap();
+    b.rig.start(&trapezoid([1.0, 1.0], 2.0, 0.5)).unwrap();
     b.run(seconds);
     b
 }
@@ -157,8 +89,8 @@ fn moving(injection: Injection, seconds: f32) -> Bench {
 #[test]
 fn the_nominal_move_runs_clean() {
     let b = moving(Injection::None, 3.0);
-    assert_eq!(b.ctrl.fault(), None);
-    assert_eq!(b.drive.mode(&b.ctrl), Mode::Armed);
+    assert_eq!(b.rig.control.ctrl.fault(), None);
+    assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Armed);
     assert!((b.theta() - Vector2::new(1.0, 1.0)).abs().max() < 1e-3);
 }
 
@@ -171,19 +103,19 @@ fn a_reversed_encoder_is_caught_as_a_runaway_and_cut_in_category_0() {
     let end = b.theta();
     println!(
         "reversed encoder: {:?} {:.0} ms after the start, joint 1 at {:.4} rad, peak speed {:.2} rad/s, coast {:.4} rad",
-        b.ctrl.fault(),
+        b.rig.control.ctrl.fault(),
         (t - 0.1) * 1e3,
         at.x,
         b.peak_speed,
         (end - at).abs().max()
     );
-    assert_eq!(b.ctrl.fault(), Some(Fault::Runaway));
+    assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::Runaway));
     assert_eq!(Fault::Runaway.stop_category(), 0);
     assert!(t - 0.1 < 0.15, "detected within 150 ms");
     assert!(at.x.abs() < 0.05, "joint 1 travelled under 0.05 rad");
     assert!(b.peak_speed < 1.0);
     assert!((end - at).abs().max() < 0.06, "coast under 0.06 rad");
-    assert!(!b.arm.enabled());
+    assert!(!b.rig.board.sim.arm.enabled());
 }
 
 /// Joint 2's encoder freezes mid-move (0.8 s). Measured: FrozenEncoder 39 ms later, 1.17 rad/s
@@ -198,13 +130,13 @@ fn a_frozen_encoder_mid_move_is_caught_within_50_ms() {
     let end = b.theta();
     println!(
         "frozen encoder: {:?} {:.0} ms after it froze, joint 2 moved {:.4} rad meanwhile, peak speed {:.2} rad/s, coast {:.4} rad",
-        b.ctrl.fault(),
+        b.rig.control.ctrl.fault(),
         (t - 0.8) * 1e3,
         (at.y - frozen_at.y).abs(),
         b.peak_speed,
         (end - at).abs().max()
     );
-    assert_eq!(b.ctrl.fault(), Some(Fault::FrozenEncoder));
+    assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::FrozenEncoder));
     assert!(t - 0.8 < 0.05, "detected within 50 ms");
     assert!((at.y - frozen_at.y).abs() < 0.06);
     assert!(b.peak_speed < 1.3);
@@ -227,11 +159,11 @@ fn a_stall_against_an_obstacle_is_cut_within_40_ms() {
         + 0.1;
     println!(
         "stall: {:?} {:.0} ms after contact, joint 1 at {:.4} rad",
-        b.ctrl.fault(),
+        b.rig.control.ctrl.fault(),
         (t - contact) * 1e3,
         at.x
     );
-    assert_eq!(b.ctrl.fault(), Some(Fault::FrozenEncoder));
+    assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::FrozenEncoder));
     assert!(t - contact < 0.04 && t > contact);
     assert!((b.theta().x - 0.3).abs() < 1e-3);
 }
@@ -241,21 +173,24 @@ fn a_stall_against_an_obstacle_is_cut_within_40_ms() {
 #[test]
 fn the_following_error_trips_at_its_limit() {
     let mut b = Bench::new();
-    b.drive.motion.frozen_periods = u32::MAX;
-    b.injection = Injection::Wall(0.3);
-    b.drive.arm(&mut b.ctrl, b.now).unwrap();
-    b.drive
-        .start(&mut b.ctrl, b.now, &trapezoid([1.0, 1.0], 2.0, 0.5))
-        .unwrap();
+    b.rig.drive.motion.frozen_periods = u32::MAX;
+    b.rig.board.injection = Injection::Wall(0.3);
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([1.0, 1.0], 2.0, 0.5)).unwrap();
     let mut worst: f32 = 0.0;
     for _ in 0..2000 {
         b.period();
-        if b.ctrl.fault().is_none() {
-            let r = b.ctrl.trajectory.sample(b.drive.time(b.now));
+        if b.rig.control.ctrl.fault().is_none() {
+            let r = b
+                .rig
+                .control
+                .ctrl
+                .trajectory
+                .sample(b.rig.drive.time(b.rig.motor.now()));
             worst = worst.max((b.encoders() - r.q).abs().max());
         }
     }
-    assert_eq!(b.ctrl.fault(), Some(Fault::FollowingError));
+    assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::FollowingError));
     assert!(
         worst <= 0.05 + 2e-3,
         "tripped within a period of the limit: {worst}"
@@ -266,13 +201,11 @@ fn the_following_error_trips_at_its_limit() {
 #[test]
 fn overspeed_trips_on_the_estimated_speed() {
     let mut b = Bench::new();
-    b.drive.motion.speed = Vector2::new(0.8, 0.8);
-    b.drive.arm(&mut b.ctrl, b.now).unwrap();
-    b.drive
-        .start(&mut b.ctrl, b.now, &trapezoid([1.57, 1.57], 2.0, 0.5))
-        .unwrap();
+    b.rig.drive.motion.speed = Vector2::new(0.8, 0.8);
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([1.57, 1.57], 2.0, 0.5)).unwrap();
     b.run(1.0);
-    assert_eq!(b.ctrl.fault(), Some(Fault::Overspeed));
+    assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::Overspeed));
     // The estimate crossed 0.8 rad/s; the true speed then was within 2 % of it.
     let peak = b.peak_speed;
     assert!((peak - 0.8).abs() < 0.016, "{peak}");
@@ -284,14 +217,15 @@ fn overspeed_trips_on_the_estimated_speed() {
 #[test]
 fn a_reference_into_the_range_limit_is_stopped_in_category_1_before_the_hard_limit() {
     let mut b = Bench::new();
-    b.arm.x.q.x = 2.0;
-    b.ctrl.reset_observer(b.arm.encoders());
-    b.drive.arm(&mut b.ctrl, b.now).unwrap();
-    b.drive
-        .start(&mut b.ctrl, b.now, &trapezoid([2.5, 0.0], 2.0, 0.5))
-        .unwrap();
+    b.rig.board.sim.arm.x.q.x = 2.0;
+    b.rig
+        .control
+        .ctrl
+        .reset_observer(b.rig.board.sim.arm.encoders());
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([2.5, 0.0], 2.0, 0.5)).unwrap();
     // The reference goes on to 4 rad at 1.5 rad/s.
-    b.ctrl.trajectory = JointTrajectory::Trapezoid(Trapezoid {
+    b.rig.control.ctrl.trajectory = JointTrajectory::Trapezoid(Trapezoid {
         start: Vector2::new(2.0, 0.0),
         amplitude: Vector2::new(2.0, 0.0),
         profile: Profile::new(2.0 / 1.5 + 0.2, 0.2).unwrap(),
@@ -300,18 +234,18 @@ fn a_reference_into_the_range_limit_is_stopped_in_category_1_before_the_hard_lim
     let mut max_theta: f32 = 0.0;
     for _ in 0..3000 {
         b.period();
-        max_theta = max_theta.max(b.arm.x.q.x);
-        if stopping.is_none() && b.drive.pending().is_some() {
-            stopping = Some((b.t(), b.arm.x.q.x, b.arm.x.qd.x));
+        max_theta = max_theta.max(b.rig.board.sim.arm.x.q.x);
+        if stopping.is_none() && b.rig.drive.pending().is_some() {
+            stopping = Some((b.t(), b.rig.board.sim.arm.x.q.x, b.rig.board.sim.arm.x.qd.x));
         }
     }
     let (t, th, v) = stopping.unwrap();
     println!(
         "soft limit: stop begun at {t:.3} s, θ1 {th:.3} rad at {v:.2} rad/s; fault {:?} at {:?}; largest θ1 {max_theta:.4} rad",
-        b.ctrl.fault(),
+        b.rig.control.ctrl.fault(),
         b.fault_at
     );
-    assert_eq!(b.ctrl.fault(), Some(Fault::SoftLimit));
+    assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::SoftLimit));
     assert_eq!(Fault::SoftLimit.stop_category(), 1);
     // The stop came first (its deceleration takes v / a = 0.15 s), then the fault.
     let (tf, _) = b.fault_at.unwrap();
@@ -327,30 +261,35 @@ fn a_reference_into_the_range_limit_is_stopped_in_category_1_before_the_hard_lim
 #[test]
 fn an_overloaded_motor_stops_in_category_1_and_clears_only_when_cool() {
     let mut b = Bench::new();
-    b.drive.arm(&mut b.ctrl, b.now).unwrap();
-    b.drive
-        .start(&mut b.ctrl, b.now, &trapezoid([1.0, 1.0], 2.0, 0.5))
-        .unwrap();
+    b.rig.arm().unwrap();
+    b.rig.start(&trapezoid([1.0, 1.0], 2.0, 0.5)).unwrap();
     b.run(0.8);
-    assert_eq!(b.drive.pending(), None);
-    b.drive.heat_for_test(Vector2::new(0.96, 0.0));
+    assert_eq!(b.rig.drive.pending(), None);
+    b.rig.drive.heat_for_test(Vector2::new(0.96, 0.0));
     b.period();
-    assert_eq!(b.drive.pending(), Some(Fault::Overload));
-    assert_eq!(b.drive.mode(&b.ctrl), Mode::Stopping);
-    assert_eq!(b.ctrl.fault(), None, "no safe state while it stops");
+    assert_eq!(b.rig.drive.pending(), Some(Fault::Overload));
+    assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Stopping);
+    assert_eq!(
+        b.rig.control.ctrl.fault(),
+        None,
+        "no safe state while it stops"
+    );
     b.run(0.5);
-    assert_eq!(b.ctrl.fault(), Some(Fault::Overload));
+    assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::Overload));
     let y = Measurement {
         theta: b.encoders(),
         v_f: 0.0,
     };
     assert!(
-        b.drive.clear(&mut b.ctrl, Some(&y), false).is_err(),
+        b.rig
+            .drive
+            .clear(&mut b.rig.control.ctrl, Some(&y), false)
+            .is_err(),
         "still hot"
     );
-    b.drive.heat_for_test(Vector2::new(0.5, 0.0));
+    b.rig.drive.heat_for_test(Vector2::new(0.5, 0.0));
     assert_eq!(
-        b.drive.clear(&mut b.ctrl, Some(&y), false),
+        b.rig.drive.clear(&mut b.rig.control.ctrl, Some(&y), false),
         Ok(Fault::Overload)
     );
 }
@@ -363,30 +302,20 @@ fn an_overloaded_motor_stops_in_category_1_and_clears_only_when_cool() {
 #[test]
 fn holding_through_a_tap_does_not_trip() {
     let mut b = Bench::new();
-    b.drive.arm(&mut b.ctrl, b.now).unwrap();
+    b.rig.arm().unwrap();
     let mut off: f32 = 0.0;
     for k in 0..2000 {
-        for _ in 0..10 {
-            let v = b.ctrl.piezo_step(b.arm.film_voltage());
-            b.arm.set_piezo(v);
-            assert!(b.arm.step(1e-4));
-        }
-        let y = Measurement {
-            theta: b.arm.encoders(),
-            v_f: b.arm.film_voltage(),
-        };
-        let r = b.drive.step(&mut b.ctrl, b.now, Some(&y));
+        // The tap adds to the torque this motor period commands.
         let tap = if (500..600).contains(&k) { 2.0 } else { 0.0 };
-        b.arm.set_torques(r.command.tau + Vector2::new(tap, -tap));
-        b.arm.set_enable(r.command.enable);
-        b.now = b.now.next();
+        b.rig.board.push = Vector2::new(tap, -tap);
+        b.period();
         off = off.max(b.theta().abs().max());
     }
     println!(
         "tapped: knocked {off:.4} rad off, back to {:.5} rad",
         b.theta().abs().max()
     );
-    assert_eq!(b.ctrl.fault(), None);
+    assert_eq!(b.rig.control.ctrl.fault(), None);
     assert!(off > 0.005, "the tap moved the arm: {off}");
     assert!(b.theta().abs().max() < 0.02);
 }
@@ -431,10 +360,10 @@ fn the_checks_see_the_steps_own_reference() {
     let mut b = moving(Injection::None, 0.0);
     let mut worst: f32 = 0.0;
     for _ in 0..1500 {
-        let t = b.drive.time(b.now);
+        let t = b.rig.drive.time(b.rig.motor.now());
         b.period();
-        let want = b.ctrl.trajectory.sample(t).q;
-        let seen = b.drive.monitor().last().unwrap().theta_d;
+        let want = b.rig.control.ctrl.trajectory.sample(t).q;
+        let seen = b.rig.drive.monitor().last().unwrap().theta_d;
         worst = worst.max((seen - want).abs().max());
     }
     println!("checked reference against the step's: {worst:.1e} rad");
@@ -530,14 +459,14 @@ mod nominal {
             ramp_share in 0.1f32..0.5,
         ) {
             let mut b = Bench::new();
-            b.arm.x.q = Vector4::new(from[0], from[1], 0.0, 0.0);
-            b.ctrl.reset_observer(b.arm.encoders());
-            b.drive.arm(&mut b.ctrl, b.now).unwrap();
+            b.rig.board.sim.arm.x.q = Vector4::new(from[0], from[1], 0.0, 0.0);
+            b.rig.control.ctrl.reset_observer(b.rig.board.sim.arm.encoders());
+            b.rig.arm().unwrap();
             let request = trapezoid(to, move_time, move_time * ramp_share);
-            if b.drive.start(&mut b.ctrl, b.now, &request).is_ok() {
+            if b.rig.start(&request).is_ok() {
                 b.run(move_time + 0.5);
-                prop_assert_eq!(b.ctrl.fault(), None);
-                prop_assert_eq!(b.drive.mode(&b.ctrl), Mode::Armed);
+                prop_assert_eq!(b.rig.control.ctrl.fault(), None);
+                prop_assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Armed);
             }
         }
     }

@@ -1,0 +1,458 @@
+//! The command link's session, the board's side: requests decoded from the line's bytes, each
+//! answered on the controller, the drive and the fault recorder; the telemetry the host
+//! subscribed to; and the conversions between the link's messages (`flexarm_link::msg`) and
+//! the core's types. The transport (a USART, a socket) is the caller's.
+//!
+//! The commands act on the drive (`flexarm_core::drive`): arm, disarm, estop, trapezoid,
+//! circle and waypoint moves (the waypoints uploaded in chunks), stop, clear; `get`/`set` on the
+//! tunable parameters (`flexarm_core::tuning`), the link watchdog's timeout and the piezo bias;
+//! the fault recorder's pages. A move is validated outside the control loops' locks
+//! ([`start_move`]).
+//!
+//! The firmware calls these from several places of its idle task; none is inlined
+//! (`#[inline(never)]`), which keeps each in flash once.
+
+use flexarm_core::Vector2;
+use flexarm_core::control::motor::MotorController;
+use flexarm_core::controller::Controller;
+use flexarm_core::drive::{self, Drive, MoveRequest, Refused, Waypoint};
+use flexarm_core::observer::Measurement;
+use flexarm_core::tuning::{Tunable, TuneError, Tuning};
+use flexarm_link::msg::{
+    Board, Channels, Command, FaultPage, Hello, Load, MAX_CHANNELS, Mode, Move, Param,
+    RecordedSample, Refusal, Reply, SAMPLES_PER_PAGE, Status, Telemetry,
+};
+use flexarm_link::{FrameError, Request, VERSION};
+use rtic_core::Mutex;
+
+use crate::period::{Control, FaultRecorder};
+use crate::telemetry::{self, Record};
+
+/// The line's rate [baud] (8N1): the hardware board's USART. A stream must fit in 80 % of it.
+pub const BAUD: u32 = 921_600;
+
+/// Who answers the handshake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Identity {
+    /// Which board.
+    pub board: Board,
+    /// The build's name.
+    pub build: &'static str,
+    /// The configuration's hash (`BoardConfig::hash`).
+    pub params_hash: u32,
+    /// Motor loop rate [Hz].
+    pub motor_hz: u32,
+    /// Piezo loop rate [Hz].
+    pub piezo_hz: u32,
+    /// The build answers the test commands (`Command::TestAmplifierFault`: the QEMU
+    /// link-session build, whose caller owns the simulated fault line); others refuse them.
+    pub test_commands: bool,
+}
+
+/// What the caller read for an answer besides the controller, the drive and the recorder.
+#[derive(Clone, Copy, Debug)]
+pub struct Io {
+    /// A fresh measurement (for `clear`).
+    pub y: Measurement<f32>,
+    /// The amplifiers' fault line.
+    pub amplifier_fault: bool,
+    /// Motor periods since boot (the last telemetry sample's).
+    pub ticks: u64,
+    /// Telemetry records the motor loop could not queue.
+    pub dropped: u32,
+    /// Bytes received since boot.
+    pub rx_bytes: u32,
+    /// Bytes lost because the receive queue was full.
+    pub rx_lost: u32,
+    /// The stack's high-water mark [bytes] (measured for a status request only).
+    pub stack_used: u32,
+    /// The piezo and motor loops' loads (for a status request only).
+    pub loads: [Load; 2],
+}
+
+/// One host session: the decoder, the subscription and the tunable parameters.
+pub struct Session {
+    decoder: flexarm_link::Decoder,
+    tuning: Tuning<f32>,
+    identity: Identity,
+    /// The channels while subscribed (the decimation is `Control::stream_every`).
+    subscription: Option<Channels>,
+    seq: u32,
+    dropped: u32,
+}
+
+/// Whether a stream of `channels` every `decimation` motor periods of a `motor_hz` loop fits
+/// in 80 % of the line (the rest for replies): `frame bytes · motor_hz / decimation ≤
+/// 0.8 · BAUD / 10` (8N1). The QEMU board's socket has no baud rate; the same rule holds
+/// there, at its own loop rate.
+fn fits_the_line(decimation: u16, channels: Channels, motor_hz: u32) -> bool {
+    // At most 87 bytes × 10 kHz × 100 and 8 × 921 600: both within a u32.
+    let per_second = channels.frame_bytes() as u32 * motor_hz / u32::from(decimation.max(1));
+    per_second * 100 <= 8 * BAUD
+}
+
+impl Session {
+    /// No host yet; `tuning` holds the parameters in force.
+    pub const fn new(tuning: Tuning<f32>, identity: Identity) -> Self {
+        Self {
+            decoder: flexarm_link::Decoder::new(),
+            tuning,
+            identity,
+            subscription: None,
+            seq: 0,
+            dropped: 0,
+        }
+    }
+
+    /// Takes one received byte; returns a complete request, or the error of a frame that did
+    /// not decode (it has no id to answer; the caller logs it).
+    #[inline(never)]
+    pub fn receive(&mut self, byte: u8) -> Option<Result<Request, FrameError>> {
+        self.decoder.push_request(byte)
+    }
+
+    /// The answer to `command`, applied to the controller, the drive and the fault recorder
+    /// (the caller holds them for the duration: a few microseconds). Moves are
+    /// [`start_move`]'s.
+    #[inline(never)]
+    pub fn answer(
+        &mut self,
+        command: Command,
+        control: &mut Control,
+        drive: &mut Drive<f32>,
+        recorder: &mut FaultRecorder,
+        io: &Io,
+    ) -> Reply {
+        let done = |r: Result<(), Refused>| match r {
+            Ok(()) => Reply::Done,
+            Err(e) => Reply::Refused(refusal(e)),
+        };
+        let id = &self.identity;
+        let ctrl = &mut control.ctrl;
+        let now = drive.next_tick();
+        drive.heard(now);
+        match command {
+            Command::Hello { version } if version != VERSION => Reply::Refused(Refusal::Version),
+            Command::Hello { .. } => Reply::Hello(hello(id)),
+            Command::Status => Reply::Status(Status {
+                mode: mode(drive.mode(ctrl)),
+                fault: ctrl.fault().map(|f| f as u8),
+                ticks: io.ticks,
+                loads: io.loads,
+                telemetry_dropped: io.dropped.saturating_add(self.dropped),
+                link_stops: drive.link_stops(),
+                rx_bytes: io.rx_bytes,
+                rx_lost: io.rx_lost,
+                stack_used: io.stack_used,
+            }),
+            Command::Ping => Reply::Done,
+            Command::Arm => done(drive.arm(ctrl, now)),
+            Command::Disarm | Command::Estop => {
+                drive.disarm(ctrl);
+                Reply::Done
+            }
+            Command::Stop => done(drive.stop(ctrl, now)),
+            Command::Clear => match drive.clear(ctrl, Some(&io.y), io.amplifier_fault) {
+                Ok(f) => {
+                    recorder.restart();
+                    Reply::Cleared(f as u8)
+                }
+                Err(e) => Reply::Refused(refusal(e)),
+            },
+            Command::Faults { from } => fault_page(recorder, from),
+            // Done by the caller on a build that answers test commands (it owns the board).
+            Command::TestAmplifierFault(_) if id.test_commands => Reply::Done,
+            // The caller's (start_move), outside this lock.
+            Command::Move(_) => Reply::Refused(Refusal::Unsupported),
+            Command::Waypoints { first, points } => {
+                let mut w = [Waypoint {
+                    theta: Vector2::zeros(),
+                    dt: 0.0,
+                }; flexarm_link::msg::WAYPOINTS_PER_CHUNK];
+                for (w, p) in w.iter_mut().zip(&points) {
+                    *w = Waypoint {
+                        theta: Vector2::new(p.theta[0], p.theta[1]),
+                        dt: p.dt,
+                    };
+                }
+                let w = w.get(..points.len()).unwrap_or(&[]);
+                done(drive.load_waypoints(ctrl, usize::from(first), w))
+            }
+            Command::Subscribe {
+                decimation,
+                channels,
+            } => {
+                if decimation == 0
+                    || !channels.is_valid()
+                    || channels.values() > MAX_CHANNELS
+                    || !fits_the_line(decimation, channels, id.motor_hz)
+                {
+                    Reply::Refused(Refusal::OutOfRange)
+                } else {
+                    self.subscription = Some(channels);
+                    control.stream_every = u32::from(decimation);
+                    Reply::Done
+                }
+            }
+            Command::Unsubscribe => {
+                self.subscription = None;
+                control.stream_every = 0;
+                Reply::Done
+            }
+            Command::Get(p) => match home(p) {
+                Home::Tuning(t) => match self.tuning.get(ctrl, t) {
+                    Ok(v) => Reply::Value(v),
+                    Err(e) => Reply::Refused(tune_refusal(e)),
+                },
+                Home::LinkTimeout => Reply::Value(drive.link_timeout as f32 / id.motor_hz as f32),
+                Home::Bias => Reply::Value(control.piezo_bias),
+            },
+            Command::Set(p, v) => {
+                let mode = drive.mode(ctrl);
+                let ((min, max), while_moving) = rule(p);
+                if !while_moving && matches!(mode, drive::Mode::Moving | drive::Mode::Stopping) {
+                    return Reply::Refused(Refusal::Moving);
+                }
+                // Written so that NaN is refused too.
+                if !(min..=max).contains(&v) {
+                    return Reply::Refused(Refusal::OutOfRange);
+                }
+                match home(p) {
+                    Home::Tuning(t) => match self.tuning.set(ctrl, mode, t, v) {
+                        Ok(()) => Reply::Done,
+                        Err(e) => Reply::Refused(tune_refusal(e)),
+                    },
+                    Home::LinkTimeout => {
+                        drive.link_timeout = (v * id.motor_hz as f32) as u32;
+                        Reply::Done
+                    }
+                    // Within the amplifier's window, while the drive holds.
+                    Home::Bias => match mode {
+                        drive::Mode::Armed => {
+                            let l = &ctrl.motor.limits;
+                            if (l.v_a_min..=l.v_a_max).contains(&v) {
+                                control.piezo_bias = v;
+                                Reply::Done
+                            } else {
+                                Reply::Refused(Refusal::OutOfRange)
+                            }
+                        }
+                        drive::Mode::Fault => Reply::Refused(Refusal::Faulted),
+                        _ => Reply::Refused(Refusal::NotArmed),
+                    },
+                }
+            }
+            Command::TestAmplifierFault(_) => Reply::Refused(Refusal::Unsupported),
+        }
+    }
+
+    /// The telemetry frame of a record the motor loop marked for the stream (at the
+    /// subscription's decimation), while subscribed; `loads` gives the loops' loads [fraction
+    /// of their periods] for the load channel.
+    #[inline(never)]
+    pub fn telemetry(&mut self, r: &Record, loads: [f32; 2]) -> Option<Telemetry> {
+        let Record::Sample {
+            tick, stream: true, ..
+        } = *r
+        else {
+            return None;
+        };
+        let channels = self.subscription?;
+        let seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        Some(Telemetry {
+            seq,
+            tick,
+            channels,
+            values: telemetry::values(r, channels, loads),
+        })
+    }
+
+    /// A telemetry frame could not be sent (counted; its sequence number is spent).
+    pub fn dropped(&mut self) {
+        self.dropped = self.dropped.saturating_add(1);
+    }
+}
+
+/// A page of the fault recorder from sample `from`.
+fn fault_page(recorder: &FaultRecorder, from: u16) -> Reply {
+    let total = recorder.len();
+    let from = usize::from(from);
+    if from > total {
+        return Reply::Refused(Refusal::NoRecord);
+    }
+    let mut samples = heapless::Vec::new();
+    for i in from..total.min(from + SAMPLES_PER_PAGE) {
+        if let Some(s) = recorder.get(i) {
+            let _ = samples.push(RecordedSample {
+                tick: s.tick,
+                theta: s.theta,
+                error: s.error,
+                delta: s.delta,
+                tau: s.tau,
+                v_f: s.v_f,
+            });
+        }
+    }
+    Reply::Faults(FaultPage {
+        fault: recorder.fault().map(|f| f as u8),
+        total: total as u16,
+        from: from as u16,
+        samples,
+    })
+}
+
+/// A copy of what a move's validation reads: the drive (its limits and waypoints) and the motor
+/// law (its model and torque limits), with the pose held. The firmware keeps it in a static
+/// (about 700 bytes), not on the stack.
+pub type Snapshot = (Drive<f32>, MotorController<f32>, Vector2<f32>);
+
+/// A first snapshot, of `drive` and `ctrl`'s motor law.
+pub fn snapshot(ctrl: &Controller<f32>, drive: &Drive<f32>) -> Snapshot {
+    (*drive, ctrl.motor, Vector2::zeros())
+}
+
+/// The core's request for a move of the link.
+pub fn move_request(m: &Move) -> MoveRequest<f32> {
+    match *m {
+        Move::Trapezoid {
+            target,
+            move_time,
+            ramp_time,
+        } => MoveRequest::Trapezoid {
+            target: Vector2::new(target[0], target[1]),
+            move_time,
+            ramp_time,
+        },
+        Move::Circle {
+            centre,
+            radius,
+            period,
+            ramp_time,
+            clockwise,
+        } => MoveRequest::Circle {
+            centre: Vector2::new(centre[0], centre[1]),
+            radius,
+            period,
+            ramp_time,
+            clockwise,
+        },
+        Move::Waypoints { count } => MoveRequest::Waypoints {
+            count: usize::from(count),
+        },
+    }
+}
+
+/// Validates and starts a move. The drive and the motor law are copied into `snapshot` under a
+/// short lock; the plan is made outside every lock (a circle's 200 checked points take about a
+/// motor period on the board, which the motor loop must not wait for); then one short lock
+/// starts it, if the drive still holds the pose it was planned from.
+#[inline(never)]
+pub fn start_move(
+    m: Move,
+    control: &mut impl Mutex<T = Control>,
+    drive: &mut impl Mutex<T = Drive<f32>>,
+    snapshot: &mut Snapshot,
+) -> Reply {
+    let request = move_request(&m);
+    control.lock(|c| {
+        drive.lock(|d| {
+            d.heard(d.next_tick());
+            snapshot.0 = *d;
+            snapshot.1 = c.ctrl.motor;
+            snapshot.2 = d.held(&c.ctrl, d.next_tick());
+        })
+    });
+    let (d, motor, from) = snapshot;
+    let plan = match d.plan(motor, *from, &request) {
+        Ok(p) => p,
+        Err(e) => return Reply::Refused(refusal(e)),
+    };
+    control
+        .lock(|c| drive.lock(|d| d.begin(&mut c.ctrl, d.next_tick(), &plan)))
+        .map_or_else(|e| Reply::Refused(refusal(e)), |_| Reply::Done)
+}
+
+/// The link's mode of the drive's.
+pub fn mode(m: drive::Mode) -> Mode {
+    match m {
+        drive::Mode::Disarmed => Mode::Disarmed,
+        drive::Mode::Armed => Mode::Armed,
+        drive::Mode::Moving => Mode::Moving,
+        drive::Mode::Stopping => Mode::Stopping,
+        drive::Mode::Fault => Mode::Fault,
+    }
+}
+
+/// The link's refusal of the drive's.
+pub fn refusal(r: Refused) -> Refusal {
+    match r {
+        Refused::Faulted => Refusal::Faulted,
+        Refused::NotArmed => Refusal::NotArmed,
+        Refused::Moving => Refusal::Moving,
+        Refused::CauseActive => Refusal::CauseActive,
+        Refused::OutOfRange => Refusal::OutOfRange,
+        Refused::Unreachable => Refusal::Unreachable,
+        Refused::TooFast => Refusal::TooFast,
+        Refused::Waypoints => Refusal::Waypoints,
+    }
+}
+
+/// Where the running board keeps a parameter (its declaration's home,
+/// `flexarm_link::for_each_param!`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Home {
+    /// The controller's, through `flexarm_core::tuning`.
+    Tuning(Tunable),
+    /// The drive's link watchdog.
+    LinkTimeout,
+    /// The piezo bias ([`Control::piezo_bias`]).
+    Bias,
+}
+
+/// `home` and `rule` from the parameters' declaration.
+macro_rules! session_params {
+    ($($variant:ident $name:literal $unit:literal ($min:expr, $max:expr) $moving:ident
+       {$($field:tt)*} $home:ident $(($($h:tt)*))? $doc:literal;)*) => {
+        /// Where the running board keeps `p`.
+        pub fn home(p: Param) -> Home {
+            match p {
+                $(Param::$variant => session_params!(@home $home $(($($h)*))?),)*
+            }
+        }
+
+        /// The range a `Set` of `p` must fall in, and whether it is accepted while moving.
+        pub fn rule(p: Param) -> ((f32, f32), bool) {
+            match p {
+                $(Param::$variant => (($min, $max), session_params!(@moving $moving)),)*
+            }
+        }
+    };
+    (@home tuning ($($t:tt)*)) => { Home::Tuning(Tunable::$($t)*) };
+    (@home drive (link_timeout)) => { Home::LinkTimeout };
+    (@home bias) => { Home::Bias };
+    (@moving moving) => { true };
+    (@moving fixed) => { false };
+}
+
+flexarm_link::for_each_param!(session_params);
+
+fn tune_refusal(e: TuneError) -> Refusal {
+    match e {
+        TuneError::Unknown => Refusal::UnknownParam,
+        TuneError::OutOfRange => Refusal::OutOfRange,
+        TuneError::Moving => Refusal::Moving,
+    }
+}
+
+#[inline(never)]
+fn hello(id: &Identity) -> Hello {
+    Hello {
+        version: VERSION,
+        board: id.board,
+        build: heapless::String::try_from(id.build).unwrap_or_default(),
+        params_hash: id.params_hash,
+        motor_hz: id.motor_hz,
+        piezo_hz: id.piezo_hz,
+    }
+}
