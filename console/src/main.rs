@@ -457,7 +457,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     let plan = inertia_plan(moves);
                     let trace = flexarm_console::identify::inertia(&mut c, &plan)?;
                     workflow::save_record(staging, "inertia", &trace).map_err(ConsoleError::Io)?;
-                    workflow::save_inertia(staging, &trace, None)
+                    workflow::save_inertia(staging, &trace, None, None)
                         .map_err(ConsoleError::Failed)?
                         .1
                 }
@@ -467,9 +467,16 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     let film_range =
                         f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
                     workflow::save_record(staging, "modes", &trace).map_err(ConsoleError::Io)?;
-                    workflow::save_modes(staging, &trace, film_range, window, None, true)
-                        .map_err(ConsoleError::Failed)?
-                        .1
+                    workflow::save_modes(
+                        staging,
+                        ("The modes experiment over the link", &trace),
+                        (film_range, window),
+                        &flexarm_sim::identify::modal::FitSettings::default(),
+                        None,
+                        true,
+                    )
+                    .map_err(ConsoleError::Failed)?
+                    .1
                 }
                 "decay" => {
                     let plan = decay_plan(taps, volts);

@@ -11,6 +11,7 @@ pub mod cli;
 pub mod eigen;
 pub mod firmware_params;
 pub mod identify;
+pub mod lab;
 pub mod montecarlo;
 pub mod outdir;
 pub mod output;

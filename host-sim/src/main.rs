@@ -90,12 +90,17 @@ enum Command {
         /// combinations), `decay` (the held arm's free decay, against each model's
         /// prediction), or `all` of them and then the identified model and its closed-loop
         /// and decay checks; or `model`: the model from a board's two records
-        /// (`--modes-record`, `--inertia-record`).
-        #[arg(value_parser = ["friction", "modes", "inertia", "decay", "all", "model"])]
+        /// (`--modes-record`, `--inertia-record`); or `family`: the test family's arms, each
+        /// identified from its lab's records, against their truth (docs/identification.md).
+        #[arg(value_parser = ["friction", "modes", "inertia", "decay", "all", "model", "family"])]
         experiment: String,
         /// `decay`: a model file (`model.toml`) whose prediction of the decay is checked too.
         #[arg(long)]
         model: Option<PathBuf>,
+        /// The arm's geometry (TOML: lengths, payload, patch place and constants, the board's
+        /// ranges; docs/identification.md); default the paper's arm on the project's board.
+        #[arg(long)]
+        arm: Option<PathBuf>,
         /// `model`: the modes experiment's record (`flexarm identify modes`).
         #[arg(long)]
         modes_record: Option<PathBuf>,
@@ -109,6 +114,18 @@ enum Command {
         /// Length of the modes experiment's record [s].
         #[arg(long, default_value_t = 60.0)]
         seconds: f64,
+        /// `modes`, `model`: the band fitted, `LOW,HIGH` [Hz] (default: what the record's inputs cover).
+        #[arg(long, value_delimiter = ',', num_args = 2)]
+        band: Option<Vec<f64>>,
+        /// `modes`, `model`: the controller's modes, numbered from 1 upwards among those found (default 1,2).
+        #[arg(long, value_delimiter = ',', num_args = 2)]
+        keep: Option<Vec<usize>>,
+        /// `modes`, `model`: most modes the stabilization diagram makes room for.
+        #[arg(long, default_value_t = 8)]
+        max_modes: usize,
+        /// `modes`, `model`: Welch's segment for a stationary record [s] (default: from the record).
+        #[arg(long)]
+        segment: Option<f64>,
         /// Cruise speeds [rad/s], both directions each.
         #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::identify::SPEEDS)]
         speeds: Vec<f64>,
@@ -462,10 +479,15 @@ fn main_result(cli: Cli) -> Result<()> {
         Command::Identify {
             experiment,
             model,
+            arm,
             modes_record,
             inertia_record,
             record,
             seconds,
+            band,
+            keep,
+            max_modes,
+            segment,
             speeds,
             cruise,
             out,
@@ -503,6 +525,15 @@ fn main_result(cli: Cli) -> Result<()> {
                 }
                 None => None,
             };
+            let geometry = match &arm {
+                Some(p) => {
+                    let text = std::fs::read_to_string(p)
+                        .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
+                    flexarm_sim::identify::geometry::Geometry::parse(&text)
+                        .map_err(|e| flexarm_beam::config::at_line(p, &text, &e))?
+                }
+                None => flexarm_sim::identify::geometry::Geometry::default(),
+            };
             use flexarm_sim::identify::workflow;
             let dir = OutDir::open(&out, "identify", force)?;
             let b = workflow::Bench {
@@ -510,20 +541,55 @@ fn main_result(cli: Cli) -> Result<()> {
                 known: truth.is_some(),
                 dir: dir.staging(),
                 plots: !no_plots,
+                geometry: &geometry,
             };
             let nominal = (
                 &flexarm_core::params::ArmParams::default(),
                 &flexarm_core::control::piezo::PiezoPatch::paper(),
             );
+            if !(1..=12).contains(&max_modes) {
+                return Err(format!("--max-modes {max_modes}: give 1 to 12"));
+            }
+            if let Some(s) = segment
+                && !(s.is_finite() && s > 0.0)
+            {
+                return Err(format!("--segment {s}: give a length in seconds > 0"));
+            }
+            let fit_set = flexarm_sim::identify::modal::FitSettings {
+                band: band.map(|b| (b[0], b[1])),
+                keep: keep.unwrap_or_else(|| vec![1, 2]),
+                max_modes,
+                segment,
+            };
             let report = match (experiment.as_str(), &record) {
+                ("family", None) => {
+                    use flexarm_sim::identify::family::{self, Kind};
+                    use rayon::prelude::*;
+                    let kinds = [Kind::ChirpNoise, Kind::Random, Kind::ChirpLog];
+                    let results: Vec<_> = family::family()
+                        .par_iter()
+                        .map(|arm| family::identify_arm(arm, &kinds, dir.staging(), false))
+                        .collect::<Result<_>>()?;
+                    let text = format!(
+                        "# The family\n\nEach arm of `flexarm_sim::identify::family` recorded by `flexarm_sim::lab` (a PD hold, the kinds below, sized to {} of the film's range), written and read back as a trace, fitted by `cargo sim identify`'s code (`cargo sim identify family`).\n\n{}",
+                        family::FILM_SHARE,
+                        family::report(&results)
+                    );
+                    std::fs::write(dir.staging().join("family.md"), &text)
+                        .map_err(|e| format!("cannot write family.md: {e}"))?;
+                    text
+                }
+                ("family", Some(_)) => {
+                    return Err("--record: `family` makes its own records".into());
+                }
                 ("model", _) => {
                     let (Some(m), Some(i)) = (&modes_record, &inertia_record) else {
                         return Err("model: give both --modes-record and --inertia-record".into());
                     };
-                    workflow::model_from_records(&b, m, i, nominal)?
+                    workflow::model_from_records(&b, m, i, nominal.0, &fit_set)?
                 }
-                ("modes", r) => workflow::modes_step(&b, r.as_deref(), seconds)?.1,
-                ("inertia", r) => workflow::inertia_step(&b, r.as_deref())?.1,
+                ("modes", r) => workflow::modes_step(&b, r.as_deref(), seconds, &fit_set)?.1,
+                ("inertia", r) => workflow::inertia_step(&b, r.as_deref(), None)?.1,
                 ("decay", r) => {
                     let models: Vec<workflow::Model> = model
                         .map(|(arm, patch)| ("model file", arm, patch))

@@ -33,6 +33,13 @@ pub trait Plant {
     /// [`STABILITY_POSES`]), the joints damped by their viscous friction. Coarser, the fastest
     /// of its rates grows without bound.
     fn stable_step(&self) -> StableStep;
+    /// A hammer's strike: an impulse `p` [N·s] across link 2 at its tip, counter-clockwise
+    /// positive. The generalized impulse is `p (a1 cos θ2 + a2, a2, φ_1(a2) … φ_N(a2))` and the
+    /// rates jump by `B(q)⁻¹` of it. `false` when the plant cannot take one (the controller's
+    /// own model: [`ModelPlant`]).
+    fn strike(&mut self, _p: f64) -> bool {
+        false
+    }
 }
 
 /// A plant's largest stable RK4 step and what sets it.

@@ -385,6 +385,8 @@ pub struct TruthPlant<const D: usize> {
     motors: [Motor; 2],
     amplifier: PiezoAmplifier,
     film: FilmAmplifier,
+    /// The joints' reach `(a1, a2)` [m]: where a strike at the tip acts.
+    reach: (f64, f64),
     q: Coords<D>,
     qd: Coords<D>,
 }
@@ -442,6 +444,7 @@ impl<const D: usize> TruthPlant<D> {
                 spec.capacitance,
             ),
             film: FilmAmplifier::new(spec.film_corner_hz, 0.0),
+            reach: (arm.a1, arm.a2),
             q,
             qd: Coords::<D>::zeros(),
         })
@@ -524,6 +527,20 @@ impl<const D: usize> Plant for TruthPlant<D> {
             c.as_slice(),
             k.as_slice(),
         )
+    }
+
+    fn strike(&mut self, p: f64) -> bool {
+        let (a1, a2) = self.reach;
+        let mut impulse = self.tip * p;
+        impulse[0] = p * (a1 * self.q[1].cos() + a2);
+        impulse[1] = p * a2;
+        match self.arm.inertia(&self.q).cholesky() {
+            Some(b) => {
+                self.qd += b.solve(&impulse);
+                true
+            }
+            None => false,
+        }
     }
 }
 

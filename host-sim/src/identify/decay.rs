@@ -37,7 +37,8 @@ use nalgebra::DMatrix;
 use rustfft::num_complex::Complex64;
 
 use super::IdentifyError;
-use super::modes::{Excitation, ModesRecord};
+use super::modes::Excitation;
+use super::record::ModesRecord;
 use crate::sim::{Sample, SimConfig};
 
 /// The experiment's settings.
@@ -201,7 +202,7 @@ const DECIMATE_ABOVE: f64 = 150.0;
 /// Fits the film's decays after the taps in `rec` (its `v_a` shows the taps, its `v_f` the
 /// decays).
 pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, IdentifyError> {
-    super::modes::check_channels(rec)?;
+    super::record::check_channels(rec)?;
     let bad = |m: String| Err(IdentifyError::Data(m));
     let taps = taps(&rec.v_a);
     if taps.is_empty() {

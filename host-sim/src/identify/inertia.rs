@@ -62,6 +62,32 @@ impl Rigid {
         }
     }
 
+    /// The gate `physical consistency`: `A`, `J`, `S` positive and the rigid mass matrix
+    /// `[[A + J + 2S cos θ2, J + S cos θ2], [J + S cos θ2, J]]` positive definite at every
+    /// `θ2`: its determinant is `A J − S² cos² θ2`, so `A J > S²`.
+    pub fn check(&self) -> Result<(), IdentifyError> {
+        let bad = |m: String| {
+            Err(IdentifyError::Data(format!(
+                "gate `physical consistency`: {m}"
+            )))
+        };
+        for (name, v) in [("A", self.a), ("J", self.j), ("S", self.s)] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!(
+                    "{name} = {v:.4e} kg·m²: an inertia must be positive (torques of the wrong sign, or a record that does not determine it)"
+                ));
+            }
+        }
+        if self.a * self.j <= self.s * self.s {
+            return bad(format!(
+                "A J = {:.4e} ≤ S² = {:.4e}: the rigid mass matrix would not be positive definite at θ2 = 0",
+                self.a * self.j,
+                self.s * self.s
+            ));
+        }
+        Ok(())
+    }
+
     /// `nominal` with its rigid parameters changed to give these combinations: `m2` from `S`
     /// (the lengths are measured), `I_h1` takes `A`'s change and `I_2x` `J`'s (only the sums
     /// enter; a part that would turn negative goes to `I_1` and `I_h2`).
@@ -90,7 +116,20 @@ pub struct InertiaFit {
     pub residual: f64,
     /// RMS of the fitted torques [N·m].
     pub torque_rms: f64,
+    /// The combinations' uncertainty [kg·m²]: half the difference of the record's two halves'
+    /// fits.
+    pub sigma: Rigid,
+    /// The column-scaled regressor's condition number.
+    pub condition: f64,
 }
+
+/// Encoder steps each joint must travel for the inertia fit.
+pub const MIN_TRAVEL: f64 = 200.0;
+/// The column-scaled regressor's condition number above which the record does not tell the
+/// parameters apart (the experiment's record: 9; a record where `θ2` barely moves: thousands).
+pub const MAX_CONDITION: f64 = 100.0;
+/// Relative uncertainty of a combination above which the fit is refused.
+pub const MAX_SPREAD: f64 = 0.1;
 
 /// The exciting motion's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -211,6 +250,27 @@ const PASS: (f64, f64) = (2.0, 4.0);
 /// [`PASS`] is the torque's filter exactly.
 const PASS_DERIVATIVES: (f64, f64) = (4.0, 8.0);
 
+/// `δ̈` of `δ̈ + 2ζω δ̇ + ω² δ = f` for the forcing `f` sampled every `dt` [s] (frequency
+/// domain, periodic extension).
+fn modal_acceleration(f: &[f64], dt: f64, omega: f64, zeta: f64) -> Vec<f64> {
+    let n = f.len();
+    let mut planner = FftPlanner::new();
+    let mut x: Vec<Complex64> = f.iter().map(|v| Complex64::new(*v, 0.0)).collect();
+    planner.plan_fft_forward(n).process(&mut x);
+    for (k, c) in x.iter_mut().enumerate() {
+        let fk = if k <= n / 2 {
+            k as f64
+        } else {
+            k as f64 - n as f64
+        } / (n as f64 * dt);
+        let w = std::f64::consts::TAU * fk;
+        *c *= Complex64::new(-w * w, 0.0)
+            / Complex64::new(omega * omega - w * w, 2.0 * zeta * omega * w);
+    }
+    planner.plan_fft_inverse(n).process(&mut x);
+    x.iter().map(|c| c.re / n as f64).collect()
+}
+
 /// `x`'s derivatives of `orders` through the raised-cosine low-pass `pass` [Hz] (frequency
 /// domain, periodic extension; one forward transform).
 fn derivatives<const N: usize>(
@@ -253,11 +313,73 @@ fn derivatives<const N: usize>(
     })
 }
 
-/// The least-squares fit of a trace of the exciting motion (evenly sampled; angles, torques).
+/// One mode of the link as the joints feel it: `ω` [rad/s], `ζ`, and its coupling to the
+/// joints, `v` [√kg] and `w` [√kg·m] (`flexarm_core::model`: the mass matrix's
+/// `b_{1,2+j} = a1 cos θ2 v_j + w_j`, `b_{2,2+j} = w_j`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlexMode {
+    /// `ω` [rad/s].
+    pub omega: f64,
+    /// `ζ`.
+    pub zeta: f64,
+    /// `v_j` [√kg].
+    pub v: f64,
+    /// `w_j` [√kg·m].
+    pub w: f64,
+}
+
+/// The least-squares fit of a trace of the exciting motion (evenly sampled; angles, torques)
+/// with the link rigid.
 pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
+    fit_inertia_with(trace, 0.0, &[])
+}
+
+/// The fit with the link's modes `flex` taken out of the torques, `a1` [m] link 1's length: a
+/// link whose first mode lies near the motion's band is no rigid body, and its modes' reaction
+/// `τ1 += Σ (a1 cos θ2 v_j + w_j) δ̈_j`, `τ2 += Σ w_j δ̈_j` is what a rigid fit would charge to
+/// the inertias. `δ_j` follows from the measured joints' accelerations through the mode's own
+/// equation, `δ̈_j + 2ζ_jω_j δ̇_j + ω_j² δ_j = −(a1 cos θ2 v_j + w_j) θ̈1 − w_j θ̈2`, solved in
+/// the frequency domain (the record starts and ends at rest).
+pub fn fit_inertia_with(
+    trace: &[Sample],
+    a1: f64,
+    flex: &[FlexMode],
+) -> Result<InertiaFit, IdentifyError> {
+    solve_inertia(trace, a1, flex, true)
+}
+
+/// The link's modes' coupling from `S` [kg·m²]: what the model step knows of the link's mass
+/// once `S` is known ([`fit_inertia_flexible`]).
+pub type Coupling<'a> = &'a dyn Fn(f64) -> Result<Vec<FlexMode>, IdentifyError>;
+
+/// [`fit_inertia_with`] where the modes' coupling depends on `S` itself: three passes, each
+/// with the coupling of the pass before's `S`, at least `s_floor` [kg·m²] (what a payload
+/// alone gives: a rigid fit of a flexible link may find less); the first with the link rigid,
+/// the first two with the gates waived (a flexible link's rigid fit may well fail them).
+pub fn fit_inertia_flexible(
+    trace: &[Sample],
+    a1: f64,
+    s_floor: f64,
+    coupling: Coupling,
+) -> Result<InertiaFit, IdentifyError> {
+    let mut s = solve_inertia(trace, a1, &[], false)?.rigid.s;
+    for _ in 0..2 {
+        s = solve_inertia(trace, a1, &coupling(s.max(s_floor))?, false)?
+            .rigid
+            .s;
+    }
+    fit_inertia_with(trace, a1, &coupling(s.max(s_floor))?)
+}
+
+fn solve_inertia(
+    trace: &[Sample],
+    a1: f64,
+    flex: &[FlexMode],
+    gates: bool,
+) -> Result<InertiaFit, IdentifyError> {
     if trace.len() < 1000 {
         return Err(IdentifyError::Data(format!(
-            "the record holds {} samples: at least 1000 are needed",
+            "gate `record length`: the record holds {} samples: at least 1000 are needed",
             trace.len()
         )));
     }
@@ -271,17 +393,47 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
         .any(|v| !v.is_finite())
     {
         return Err(IdentifyError::Data(
-            "the record holds a value that is not a finite number".into(),
+            "gate `channels`: the record holds a value that is not a finite number".into(),
         ));
+    }
+    let excitation = |m: String| Err(IdentifyError::Data(format!("gate `excitation`: {m}")));
+    for (j, theta) in th.iter().enumerate() {
+        let torque = trace.iter().map(|s| s.tau[j]);
+        if super::record::span(torque) == 0.0 {
+            return excitation(format!(
+                "joint {}'s torque `tau{}` never changes (a disarmed board records zeros): the inertias cannot be seen",
+                j + 1,
+                j + 1
+            ));
+        }
+        let travel = super::record::travel_counts(theta);
+        if travel < MIN_TRAVEL {
+            return excitation(format!(
+                "joint {} moved {travel} encoder steps (at least {MIN_TRAVEL}): move both joints through the experiment's trapezoids",
+                j + 1
+            ));
+        }
     }
     let lowpass = |x: &[f64]| {
         let [y] = derivatives(x, dt, PASS, [0]);
         y
     };
-    let tau = [lowpass(&ch(&|s| s.tau.x)), lowpass(&ch(&|s| s.tau.y))];
     let [pos1, vel1, acc1] = derivatives(&th[0], dt, PASS_DERIVATIVES, [0, 1, 2]);
     let [pos2, vel2, acc2] = derivatives(&th[1], dt, PASS_DERIVATIVES, [0, 1, 2]);
     let (pos, vel, acc) = ([pos1, pos2], [vel1, vel2], [acc1, acc2]);
+    let mut raw = [ch(&|s| s.tau.x), ch(&|s| s.tau.y)];
+    for m in flex {
+        let b1: Vec<f64> = pos[1].iter().map(|c| a1 * c.cos() * m.v + m.w).collect();
+        let force: Vec<f64> = (0..raw[0].len())
+            .map(|k| -b1[k] * acc[0][k] - m.w * acc[1][k])
+            .collect();
+        let dd = modal_acceleration(&force, dt, m.omega, m.zeta);
+        for k in 0..raw[0].len() {
+            raw[0][k] -= b1[k] * dd[k];
+            raw[1][k] -= m.w * dd[k];
+        }
+    }
+    let tau = [lowpass(&raw[0]), lowpass(&raw[1])];
     // The regressor's columns, each through the low-pass the torques took: its products of
     // angles, speeds and accelerations reach past the band, and the equation holds only when
     // both sides are filtered alike.
@@ -324,21 +476,68 @@ pub fn fit_inertia(trace: &[Sample]) -> Result<InertiaFit, IdentifyError> {
         b[2 * r] = tau[0][k];
         b[2 * r + 1] = tau[1][k];
     }
-    let x = a
-        .clone()
-        .svd(true, true)
-        .solve(&b, 1e-12)
-        .map_err(|e| IdentifyError::Data(format!("the inertia least squares: {e}")))?;
+    let solve = |a: &DMatrix<f64>, b: &DVector<f64>| {
+        a.clone()
+            .svd(true, true)
+            .solve(b, 1e-12)
+            .map_err(|e| IdentifyError::Data(format!("the inertia least squares: {e}")))
+    };
+    // The regressor's conditioning, columns scaled to unit norm.
+    let mut scaled = a.clone();
+    for mut c in scaled.column_iter_mut() {
+        let n = c.norm();
+        if n > 0.0 {
+            c /= n;
+        }
+    }
+    let sv = scaled.singular_values();
+    let condition = sv.max() / sv.min().max(f64::MIN_POSITIVE);
+    if gates && (condition.is_nan() || condition > MAX_CONDITION) {
+        return Err(IdentifyError::Data(format!(
+            "gate `regressor condition`: the regressor's condition number is {condition:.3e} (at most {MAX_CONDITION}): the record's motion does not tell A, J, S and the friction apart (θ2 must swing widely, both joints move both ways at several speeds)"
+        )));
+    }
+    let x = solve(&a, &b)?;
+    // The record's two halves, fitted alone: their difference is the uncertainty.
+    let half = a.nrows() / 4 * 2;
+    let xa = solve(&a.rows(0, half).into_owned(), &b.rows(0, half).into_owned())?;
+    let xb = solve(
+        &a.rows(half, a.nrows() - half).into_owned(),
+        &b.rows(half, b.nrows() - half).into_owned(),
+    )?;
+    let sigma = Rigid {
+        a: (xa[0] - xb[0]).abs() / 2.0,
+        j: (xa[1] - xb[1]).abs() / 2.0,
+        s: (xa[2] - xb[2]).abs() / 2.0,
+    };
+    let rigid = Rigid {
+        a: x[0],
+        j: x[1],
+        s: x[2],
+    };
+    if gates {
+        rigid.check()?;
+    }
+    for (name, v, s) in [
+        ("A", rigid.a, sigma.a),
+        ("J", rigid.j, sigma.j),
+        ("S", rigid.s, sigma.s),
+    ] {
+        if gates && s > MAX_SPREAD * v {
+            return Err(IdentifyError::Data(format!(
+                "gate `uncertainty`: {name} = {v:.4e} ± {s:.1e} kg·m² (the record's halves disagree by more than {:.0} %): a longer record, or wider moves",
+                MAX_SPREAD * 100.0
+            )));
+        }
+    }
     let res = &b - &a * &x;
     let rms = |v: &DVector<f64>| (v.norm_squared() / v.len() as f64).sqrt();
     Ok(InertiaFit {
-        rigid: Rigid {
-            a: x[0],
-            j: x[1],
-            s: x[2],
-        },
+        rigid,
         friction: [(x[3], x[4]), (x[5], x[6])],
         residual: rms(&res),
         torque_rms: rms(&b),
+        sigma,
+        condition,
     })
 }

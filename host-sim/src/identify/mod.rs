@@ -10,13 +10,18 @@
 //! - [`report`], [`workflow`]: the reports and the `cargo sim identify` steps.
 
 pub mod decay;
-pub mod frf;
+pub mod family;
 pub mod friction;
+pub mod geometry;
 pub mod inertia;
+pub mod modal;
 pub mod model;
 pub mod modes;
+pub mod order;
 pub mod rational;
+pub mod record;
 pub mod report;
+pub mod spectra;
 pub mod workflow;
 
 pub use friction::*;

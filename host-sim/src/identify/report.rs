@@ -8,8 +8,8 @@ use flexarm_core::params::ArmParams;
 
 use super::decay::DecayFit;
 use super::inertia::{InertiaFit, Rigid};
+use super::modal::{Input, ModesFit};
 use super::model::LoopRun;
-use super::modes::ModesFit;
 
 /// `x` against `truth` in percent, or a dash.
 fn pct(x: f64, truth: Option<f64>) -> String {
@@ -19,57 +19,156 @@ fn pct(x: f64, truth: Option<f64>) -> String {
     }
 }
 
-/// The modes' table, against the true controller model `truth` when known.
+/// `x ± s` with `digits` decimals, or a dash when `x` is not a number.
+fn plus_minus(x: f64, s: f64, digits: usize) -> String {
+    if !x.is_finite() {
+        return "—".into();
+    }
+    if s.is_finite() {
+        format!("{x:.digits$} ± {s:.digits$}")
+    } else {
+        format!("{x:.digits$}")
+    }
+}
+
+/// The modes' report: the inputs and what the fit chose, every resonance found (frequency,
+/// damping, products, each with its standard deviation, the coherence where meaningful, the
+/// orders it was stable over), which the controller keeps and which it leaves out and why;
+/// against the true controller model `truth` when known.
 pub fn modes_report(fit: &ModesFit, truth: Option<(&ArmParams<f64>, &PiezoPatch<f64>)>) -> String {
     let tau = std::f64::consts::TAU;
-    let mut s = String::from(
-        "| mode | f [Hz] | ζ | g = k_a k_s Δφ'² [V/V·s⁻²] | c = k_s Δφ' w [V·s²/rad·s⁻²] | coherence | true f | true ζ | true g | error f | error ζ | error g |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    let mut s = format!(
+        "Inputs: {}; output: the film's reading v_f. Band {:.3}–{:.1} Hz.\n\n",
+        fit.inputs
+            .iter()
+            .map(|i| i.name())
+            .collect::<Vec<_>>()
+            .join(" and "),
+        fit.band.0,
+        fit.band.1
     );
-    for (j, m) in fit.modes.iter().enumerate() {
-        let t = truth.map(|(a, p)| {
-            (
-                a.modes.omega[j] / tau,
-                a.modes.zeta[j],
-                p.k_a * p.k_s * p.slope_diff[j].powi(2),
-            )
-        });
-        let show = |x: Option<f64>| x.map_or("—".into(), |v| format!("{v:.4}"));
+    for n in &fit.notes {
+        let _ = writeln!(s, "- {n}.");
+    }
+    s.push_str(
+        "\n| mode | f [Hz] | ζ | g = k_a k_s Δφ'² [V/V·s⁻²] | c = k_s Δφ' w [V·s²/rad·s⁻²] | coherence | stable over | controller |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let digits = |x: f64, s: f64| {
+        // As many decimals as the spread asks, two significant digits of it.
+        let d = if s.is_finite() && s > 0.0 {
+            (1.0 - s.log10().floor()).max(0.0) as usize
+        } else {
+            4
+        };
+        plus_minus(x, s, d.min(6))
+    };
+    for (j, m) in fit.all.iter().enumerate() {
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} orders | {} |",
             j + 1,
-            m.omega / tau,
-            m.zeta,
-            m.piezo_film,
-            m.base_film,
-            m.coherence,
-            show(t.map(|t| t.0)),
-            show(t.map(|t| t.1)),
-            show(t.map(|t| t.2)),
-            pct(m.omega / tau, t.map(|t| t.0)),
-            pct(m.zeta, t.map(|t| t.1)),
-            pct(m.piezo_film, t.map(|t| t.2)),
+            digits(m.hz(), m.sigma[0] / tau),
+            digits(m.zeta, m.sigma[1]),
+            digits(m.piezo_film, m.sigma[2]),
+            digits(m.base_film, m.sigma[3]),
+            m.coherence.map_or("—".into(), |c| format!("{c:.3}")),
+            m.stable,
+            match fit.kept.iter().position(|k| *k == j + 1) {
+                Some(i) => format!("mode {}", i + 1),
+                None => "left out".into(),
+            }
+        );
+    }
+    let kept: Vec<String> = fit.kept.iter().map(|k| k.to_string()).collect();
+    let out: Vec<String> = (1..=fit.all.len())
+        .filter(|k| !fit.kept.contains(k))
+        .map(|k| {
+            let above = fit.kept.iter().all(|q| *q < k);
+            format!(
+                "{k} ({:.3} Hz: {})",
+                fit.all[k - 1].hz(),
+                if above {
+                    "above the controller's modes"
+                } else {
+                    "not among the modes asked"
+                }
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "\nThe controller keeps mode(s) {}{}. Left out: {}.",
+        kept.join(" and "),
+        if fit.kept == [1, 2] {
+            " (the lowest two: the default)"
+        } else {
+            " (asked with --keep)"
+        },
+        if out.is_empty() {
+            "none".to_string()
+        } else {
+            out.join("; ")
+        }
+    );
+    if fit.held.is_some() {
+        s.push_str(
+            "These are the held arm's modes (the base is not an input): its first mode can lie several per cent from the clamped link's the controller needs.\n",
         );
     }
     if let Some(f) = fit.highpass_hz {
         let _ = writeln!(
             s,
-            "\nThe fit also finds the film amplifier's high-pass: a real pole at {f:.2} Hz."
+            "The fit also finds a real pole at {f:.2} Hz (the film amplifier's high-pass)."
         );
+    }
+    if let Some((a, p)) = truth {
+        s.push_str(
+            "\n| controller mode | true f | true ζ | true g | error f | error ζ | error g |\n|---|---|---|---|---|---|---|\n",
+        );
+        for (j, m) in fit.modes.iter().enumerate().take(2) {
+            let t = (
+                a.modes.omega[j] / tau,
+                a.modes.zeta[j],
+                p.k_a * p.k_s * p.slope_diff[j].powi(2),
+            );
+            let _ = writeln!(
+                s,
+                "| {} | {:.4} | {:.4} | {:.4} | {} | {} | {} |",
+                j + 1,
+                t.0,
+                t.1,
+                t.2,
+                pct(m.hz(), Some(t.0)),
+                pct(m.zeta, Some(t.1)),
+                pct(m.piezo_film, Some(t.2)),
+            );
+        }
     }
     s
 }
 
 /// The measured and fitted responses: `f_Hz, coherence`, then per input (`piezo`: V_f/V_a,
-/// `base`: V_f/α̈) the measured and fitted real and imaginary parts.
+/// `base`: V_f/α) the measured and fitted real and imaginary parts (measured: `NaN` where
+/// the record gives no nonparametric estimate; coherence empty where not meaningful).
 pub fn frf_csv(fit: &ModesFit) -> String {
-    let mut s = String::from(
-        "f_Hz,coherence,piezo_re,piezo_im,piezo_fit_re,piezo_fit_im,base_re,base_im,base_fit_re,base_fit_im\n",
-    );
-    for (k, f) in fit.frf.freq.iter().enumerate() {
-        let _ = write!(s, "{f:.4},{:.4}", fit.frf.coherence[k]);
-        for i in 0..2 {
-            let (h, g) = (fit.frf.h[k][i], fit.fit.eval(i, *f));
+    let mut s = String::from("f_Hz,coherence");
+    for i in &fit.inputs {
+        let p = match i {
+            Input::Patch => "piezo",
+            Input::Base => "base",
+        };
+        let _ = write!(s, ",{p}_re,{p}_im,{p}_fit_re,{p}_fit_im");
+    }
+    s.push('\n');
+    let sp = &fit.spectra;
+    for (k, f) in sp.freq.iter().enumerate() {
+        let c = sp
+            .coherence
+            .as_ref()
+            .map_or(String::new(), |c| format!("{:.4}", c[k]));
+        let _ = write!(s, "{f:.5},{c}");
+        for i in 0..fit.inputs.len() {
+            let (h, g) = (sp.h[k][i], fit.fit.eval(i, *f));
             let _ = write!(s, ",{:.6e},{:.6e},{:.6e},{:.6e}", h.re, h.im, g.re, g.im);
         }
         s.push('\n');
@@ -77,7 +176,17 @@ pub fn frf_csv(fit: &ModesFit) -> String {
     s
 }
 
-/// The responses' magnitudes, measured (dots) and fitted (line), one panel per input.
+/// The stabilization diagram: `k` (room for modes), `f_Hz`, `zeta`, `stable_orders`.
+pub fn stability_csv(fit: &ModesFit) -> String {
+    let mut s = String::from("k,f_Hz,zeta,stable_orders\n");
+    for p in &fit.diagram {
+        let _ = writeln!(s, "{},{:.5},{:.5},{}", p.k, p.hz, p.zeta, p.run);
+    }
+    s
+}
+
+/// The responses' magnitudes, measured (dots, where the record gives them) and fitted (line),
+/// one panel per input.
 pub fn frf_figure(
     path: &std::path::Path,
     fit: &ModesFit,
@@ -85,22 +194,25 @@ pub fn frf_figure(
     use plotters::prelude::*;
     let root = SVGBackend::new(path, (900, 420)).into_drawing_area();
     root.fill(&WHITE)?;
-    let panels = root.split_evenly((1, 2));
-    let names = ["V_f / V_a [V/V]", "V_f / base acceleration [V·s²/rad]"];
+    let panels = root.split_evenly((1, fit.inputs.len().max(1)));
+    let sp = &fit.spectra;
     let (f0, f1) = (
-        fit.frf.freq.first().copied().unwrap_or(1.0),
-        fit.frf.freq.last().copied().unwrap_or(2.0),
+        sp.freq.first().copied().unwrap_or(1.0),
+        sp.freq.last().copied().unwrap_or(2.0),
     );
-    for (i, area) in panels.iter().enumerate() {
-        let measured: Vec<(f64, f64)> = fit
-            .frf
+    for (i, area) in panels.iter().enumerate().take(fit.inputs.len()) {
+        let name = match fit.inputs[i] {
+            Input::Patch => "V_f / V_a [V/V]",
+            Input::Base => "V_f / base angle [V/rad]",
+        };
+        let measured: Vec<(f64, f64)> = sp
             .freq
             .iter()
-            .zip(&fit.frf.h)
+            .zip(&sp.h)
+            .filter(|(_, h)| h[i].norm().is_finite())
             .map(|(f, h)| (*f, h[i].norm().max(1e-12)))
             .collect();
-        let fitted: Vec<(f64, f64)> = fit
-            .frf
+        let fitted: Vec<(f64, f64)> = sp
             .freq
             .iter()
             .map(|f| (*f, fit.fit.eval(i, *f).norm().max(1e-12)))
@@ -118,7 +230,7 @@ pub fn frf_figure(
             .fold(f64::INFINITY, f64::min)
             / 2.0;
         let mut chart = ChartBuilder::on(area)
-            .caption(names[i], ("sans-serif", 16))
+            .caption(name, ("sans-serif", 16))
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(70)

@@ -9,9 +9,12 @@ use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::params::ArmParams;
 
 use super::decay::{self, DecayFit, DecayPlan, DecaySettings};
+use super::geometry::Geometry;
 use super::inertia::{self, InertiaFit, InertiaPlan, Rigid};
+use super::modal::{self, FitSettings, ModesFit};
 use super::model::{self, closed_loop, identified_model};
-use super::modes::{self, FitSettings, ModesFit, ModesPlan, ModesRecord};
+use super::modes::{self, ModesPlan};
+use super::record::ModesRecord;
 use super::report;
 use crate::output::{read_csv, trace_csv};
 use crate::sim::{Sample, SimConfig};
@@ -27,6 +30,8 @@ pub struct Bench<'a> {
     pub dir: &'a Path,
     /// Draw the figures.
     pub plots: bool,
+    /// The arm's geometry (lengths, payload, patch, transducers, the board's ranges).
+    pub geometry: &'a Geometry,
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> Result<(), String> {
@@ -38,6 +43,21 @@ fn naming(record: Option<&Path>) -> impl Fn(String) -> String + '_ {
     move |e| match record {
         Some(p) => format!("{}: {e}", p.display()),
         None => e,
+    }
+}
+
+/// The film ADC's range and the amplifier's window [V]: a record's the geometry's, the
+/// simulator's its own.
+fn ranges(b: &Bench, record: Option<&Path>) -> (f64, (f64, f64)) {
+    match record {
+        Some(_) => (b.geometry.film_range, b.geometry.amplifier_window),
+        None => (
+            b.cfg.sensors.adc_range,
+            (
+                f64::from(b.cfg.limits.v_a_min),
+                f64::from(b.cfg.limits.v_a_max),
+            ),
+        ),
     }
 }
 
@@ -59,61 +79,59 @@ fn record_or_run(
     }
 }
 
-/// The modes step: `modes.md`, `modes_frf.csv`, `modes.svg` (and the record when simulated).
+/// The modes step: `modes.md`, `modes_frf.csv`, `modes_stability.csv`, `modes.svg` (and the
+/// record when simulated).
 pub fn modes_step(
     b: &Bench,
     record: Option<&Path>,
     seconds: f64,
+    set: &FitSettings,
 ) -> Result<(ModesFit, String), String> {
     let plan = ModesPlan {
         seconds,
         ..ModesPlan::default()
     };
     let trace = record_or_run(b, record, "modes", || modes::modes_experiment(b.cfg, &plan))?;
-    let window = (
-        f64::from(b.cfg.limits.v_a_min),
-        f64::from(b.cfg.limits.v_a_max),
-    );
+    let (range, window) = ranges(b, record);
     let truth = b.known.then_some((&b.cfg.arm, &b.cfg.patch));
+    let source = match record {
+        Some(p) => format!("The record {}", p.display()),
+        None => format!(
+            "The modes experiment on the simulator ({seconds} s at (0, π/2) rad: blocks of the patch's bias stepping at random and of joint 2 moving about the pose)"
+        ),
+    };
     save_modes(
         b.dir,
-        &trace,
-        b.cfg.sensors.adc_range,
-        window,
+        (&source, &trace),
+        (range, window),
+        set,
         truth,
         b.plots,
     )
     .map_err(naming(record))
 }
 
-/// Fits the modes record `trace` (film ADC range `±v_f_range` [V], amplifier window [V]) and
-/// writes `modes.md`, `modes_frf.csv` and, with `plots`, `modes.svg` into `dir`; the band's top
-/// is 45 Hz or 0.4 of the record's rate, whichever is lower. Returns the fit and the report.
+/// Fits the record `trace` (described by `source`; film ADC range `±v_f_range` [V],
+/// amplifier window [V]) with `set` and writes `modes.md`, `modes_frf.csv`,
+/// `modes_stability.csv` and, with `plots`, `modes.svg` into `dir`. Returns the fit and the
+/// report.
 pub fn save_modes(
     dir: &Path,
-    trace: &[Sample],
-    v_f_range: f64,
-    v_a_window: (f64, f64),
+    (source, trace): (&str, &[Sample]),
+    (v_f_range, v_a_window): (f64, (f64, f64)),
+    set: &FitSettings,
     truth: Option<(&ArmParams<f64>, &PiezoPatch<f64>)>,
     plots: bool,
 ) -> Result<(ModesFit, String), String> {
     let rec = ModesRecord::from_trace(trace, v_f_range, v_a_window).map_err(|e| e.to_string())?;
-    let d = FitSettings::default();
-    let set = FitSettings {
-        band: (d.band.0, d.band.1.min(0.4 / rec.dt)),
-        ..d
-    };
-    let fit = modes::fit_modes(&rec, &set).map_err(|e| e.to_string())?;
+    let fit = modal::fit_modes(&rec, set).map_err(|e| e.to_string())?;
     let text = format!(
-        "# The link's modes\n\nJoints held at (0, π/2) rad; blocks of the patch's bias stepping at random and of joint 2 moving about the pose; Welch's H1 over {} segments of {} s (Hann, half overlap), a common-denominator fit in {}–{:.0} Hz (`docs/identification.md`).\n\n{}",
-        fit.frf.segments,
-        set.segment,
-        set.band.0,
-        set.band.1,
+        "# The link's modes\n\n{source}: a common-denominator fit of its spectra, the modes from a stabilization diagram (`docs/identification.md`).\n\n{}",
         report::modes_report(&fit, truth)
     );
     write(dir, "modes.md", &text)?;
     write(dir, "modes_frf.csv", &report::frf_csv(&fit))?;
+    write(dir, "modes_stability.csv", &report::stability_csv(&fit))?;
     if plots {
         report::frf_figure(&dir.join("modes.svg"), &fit)
             .map_err(|e| format!("cannot draw the figure: {e}"))?;
@@ -122,24 +140,45 @@ pub fn save_modes(
 }
 
 /// The inertia step: `inertia.md` (and the record when simulated).
-pub fn inertia_step(b: &Bench, record: Option<&Path>) -> Result<(InertiaFit, String), String> {
+/// The inertia step, with the link's modes of `modes` (a modes fit of the same arm) taken out
+/// of the torques when given: `inertia.md` (and the record when simulated).
+pub fn inertia_step(
+    b: &Bench,
+    record: Option<&Path>,
+    modes: Option<&ModesFit>,
+) -> Result<(InertiaFit, String), String> {
     let trace = record_or_run(b, record, "inertia", || {
         inertia::inertia_experiment(b.cfg, &InertiaPlan::default())
     })?;
     let truth = b.known.then(|| Rigid::of(&b.cfg.arm));
-    save_inertia(b.dir, &trace, truth).map_err(naming(record))
+    save_inertia(b.dir, &trace, truth, modes.map(|m| (b.geometry, m))).map_err(naming(record))
 }
 
-/// Fits the inertia record `trace` and writes `inertia.md` into `dir` (against `truth` when
-/// known). Returns the fit and the report.
+/// Fits the inertia record `trace` (with the modes of a modes fit on a geometry taken out of
+/// the torques, when given) and writes `inertia.md` into `dir` (against `truth` when known).
+/// Returns the fit and the report.
 pub fn save_inertia(
     dir: &Path,
     trace: &[Sample],
     truth: Option<Rigid>,
+    modes: Option<(&Geometry, &ModesFit)>,
 ) -> Result<(InertiaFit, String), String> {
-    let fit = inertia::fit_inertia(trace).map_err(|e| e.to_string())?;
+    let (fit, how) = match modes {
+        Some((g, m)) => (
+            inertia::fit_inertia_flexible(trace, g.a1, g.s_floor(), &|s| model::coupling(g, m, s)),
+            format!(
+                "the link's {} mode(s) the modes fit found taken out of the torques through the geometry's shapes",
+                m.all.len()
+            ),
+        ),
+        None => (
+            inertia::fit_inertia(trace),
+            "the link taken as rigid (`identify model` takes its modes out)".to_string(),
+        ),
+    };
+    let fit = fit.map_err(|e| e.to_string())?;
     let text = format!(
-        "# The rigid inertias\n\nBoth joints through random rest-to-rest trapezoids about (0, 0.5) rad; least squares on the regressor (`docs/identification.md`).\n\n{}",
+        "# The rigid inertias\n\nLeast squares on the regressor, {how} (`docs/identification.md`).\n\n{}",
         report::inertia_report(&fit, truth)
     );
     write(dir, "inertia.md", &text)?;
@@ -183,22 +222,31 @@ pub fn friction_step(b: &Bench, speeds: &[f64], cruise: f64) -> Result<String, S
     super::save_friction(b.dir, &heading, &cruises, &fits, known, b.plots)
 }
 
-/// The controller's model from the fits on the `nominal` arm and patch, written to
-/// `model.toml`.
+/// The controller's model from the fits on the bench's geometry (the rest of the rigid parts
+/// from `nominal`), written to `model.toml`, with what the step assumed (`model.md`).
 fn write_model(
     b: &Bench,
-    nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
+    nominal: &ArmParams<f64>,
     modes: &ModesFit,
     inertia: &InertiaFit,
-) -> Result<(ArmParams<f64>, PiezoPatch<f64>), String> {
-    let (arm, patch) = identified_model(nominal.0, nominal.1, &inertia.rigid, &modes.modes)
-        .map_err(|e| e.to_string())?;
+) -> Result<(ArmParams<f64>, PiezoPatch<f64>, String), String> {
+    let (arm, patch, notes) = identified_model(b.geometry, nominal, &inertia.rigid, modes)
+        .map_err(|e| format!("the model from the modes and inertia fits: {e}"))?;
+    let text = format!(
+        "# The identified model\n\n{}\n",
+        notes
+            .iter()
+            .map(|n| format!("- {n}."))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    write(b.dir, "model.md", &text)?;
     write(
         b.dir,
         "model.toml",
         &model::model_fragment(&arm, &patch, CHECK_K_C),
     )?;
-    Ok((arm, patch))
+    Ok((arm, patch, text))
 }
 
 /// Every step on the simulator, from the `nominal` arm and patch a user starts from; then
@@ -210,9 +258,9 @@ pub fn all(
     seconds: f64,
 ) -> Result<String, String> {
     let f_text = friction_step(b, &super::SPEEDS, super::CRUISE)?;
-    let (modes, m_text) = modes_step(b, None, seconds)?;
-    let (inertia, i_text) = inertia_step(b, None)?;
-    let (arm, patch) = write_model(b, nominal, &modes, &inertia)?;
+    let (modes, m_text) = modes_step(b, None, seconds, &FitSettings::default())?;
+    let (inertia, i_text) = inertia_step(b, None, Some(&modes))?;
+    let (arm, patch, _) = write_model(b, nominal.0, &modes, &inertia)?;
     let check = SimConfig {
         piezo: Some(CHECK_PIEZO),
         ..*b.cfg
@@ -243,19 +291,24 @@ pub fn all(
     Ok(format!("{f_text}\n{m_text}\n{i_text}\n{v_text}\n{d_text}"))
 }
 
-/// The model from a board's records: the modes fit of `modes_record` and the inertia fit of
-/// `inertia_record` (trace CSVs, `flexarm identify modes|inertia`), on the `nominal` arm and
-/// patch; writes their reports and `model.toml`. Returns the report.
+/// The model from a board's records: the modes fit of `modes_record` (with `set`) and the
+/// inertia fit of `inertia_record` (trace CSVs, `flexarm identify modes|inertia` or any
+/// record of the kinds docs/identification.md lists), on the bench's geometry (the rest of
+/// the rigid parts from `nominal`); writes their reports and `model.toml`. An error names the
+/// fit it could not use. Returns the report.
 pub fn model_from_records(
     b: &Bench,
     modes_record: &Path,
     inertia_record: &Path,
-    nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
+    nominal: &ArmParams<f64>,
+    set: &FitSettings,
 ) -> Result<String, String> {
-    let (modes, m_text) = modes_step(b, Some(modes_record), 0.0)?;
-    let (inertia, i_text) = inertia_step(b, Some(inertia_record))?;
-    write_model(b, nominal, &modes, &inertia)?;
-    Ok(format!("{m_text}\n{i_text}"))
+    let (modes, m_text) =
+        modes_step(b, Some(modes_record), 0.0, set).map_err(|e| format!("the modes fit: {e}"))?;
+    let (inertia, i_text) = inertia_step(b, Some(inertia_record), Some(&modes))
+        .map_err(|e| format!("the inertia fit: {e}"))?;
+    let (_, _, model) = write_model(b, nominal, &modes, &inertia)?;
+    Ok(format!("{m_text}\n{i_text}\n{model}"))
 }
 
 /// A model the decay check predicts with: its name in the report, arm and patch.
@@ -284,14 +337,10 @@ pub fn decay_step(
         .known
         .then_some(("true parameters", b.cfg.arm, b.cfg.patch));
     let all: Vec<Model> = truth.into_iter().chain(models.iter().copied()).collect();
-    let window = (
-        f64::from(b.cfg.limits.v_a_min),
-        f64::from(b.cfg.limits.v_a_max),
-    );
     save_decay(
         b.dir,
         &trace,
-        (b.cfg.sensors.adc_range, window),
+        ranges(b, record),
         &plan,
         &board,
         &all,

@@ -1,0 +1,238 @@
+//! The arm's geometry: what the model step takes as given, because no record of the film and
+//! the encoders measures it (`cargo sim identify model --arm FILE`, docs/identification.md).
+//!
+//! ```toml
+//! [arm]
+//! a1 = 0.3          # m, joint 1 to joint 2
+//! a2 = 0.7          # m, joint 2 to the tip
+//! [link]
+//! tip_mass = 0.0    # kg, a payload at the tip
+//! tip_inertia = 0.0 # kg m^2, its rotary inertia
+//! [patch]
+//! x_a = 0.09        # m, the patch's start from joint 2
+//! l_a = 0.35        # m, its length
+//! k_a = 1.0e-3      # N m/V, the actuator's moment per volt (its data sheet)
+//! k_s = 1.0e3       # V/rad, the film's volts per radian (its data sheet)
+//! [board]
+//! film_range = 10.0                   # V, the film ADC's ±range
+//! amplifier_window = [-200.0, 200.0]  # V
+//! ```
+//!
+//! Every key is optional; the defaults are the paper's arm and patch (`ArmParams::default`,
+//! `PiezoPatch::paper`) on the project's board. The link's mode shapes follow from it: a
+//! uniform link of the mass the inertias leave it (`S = a1 m2 a2/2` counts the payload twice
+//! over the link's own mass: `m2 = m_link + 2 M`) clamped at joint 2, with the payload as a
+//! tip body. What is assumed, said plainly: the link is uniform between joint 2 and the tip
+//! (the patch's own mass and stiffness are left out of the shapes, and a link that tapers is
+//! not this one); the shapes' frequencies are not used, the identified ones are.
+
+use flexarm_beam::segmented::{Mode, Segment, SegmentedBeam};
+use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_core::params::ArmParams;
+use serde::Deserialize;
+
+use super::IdentifyError;
+
+/// The geometry (module docs). SI units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geometry {
+    /// Link 1's length `a1` [m].
+    pub a1: f64,
+    /// Link 2's length `a2` [m].
+    pub a2: f64,
+    /// The payload at the tip [kg].
+    pub tip_mass: f64,
+    /// Its rotary inertia [kg·m²].
+    pub tip_inertia: f64,
+    /// The patch's start `x_a` [m].
+    pub x_a: f64,
+    /// Its length `l_a` [m].
+    pub l_a: f64,
+    /// The actuator's moment per volt `k_a` [N·m/V].
+    pub k_a: f64,
+    /// The film's volts per radian `k_s` [V/rad].
+    pub k_s: f64,
+    /// The film ADC's range `±film_range` [V].
+    pub film_range: f64,
+    /// The amplifier's window [V].
+    pub amplifier_window: (f64, f64),
+}
+
+impl Default for Geometry {
+    /// The paper's arm and patch, a ±10 V film ADC, a ±200 V amplifier.
+    fn default() -> Self {
+        let (arm, p) = (ArmParams::<f64>::default(), PiezoPatch::<f64>::paper());
+        Self {
+            a1: arm.a1,
+            a2: arm.a2,
+            tip_mass: 0.0,
+            tip_inertia: 0.0,
+            x_a: p.x_a,
+            l_a: p.l_a,
+            k_a: p.k_a,
+            k_s: p.k_s,
+            film_range: 10.0,
+            amplifier_window: (-200.0, 200.0),
+        }
+    }
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct File {
+    #[serde(default)]
+    arm: ArmTable,
+    #[serde(default)]
+    link: LinkTable,
+    #[serde(default)]
+    patch: PatchTable,
+    #[serde(default)]
+    board: BoardTable,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct ArmTable {
+    a1: Option<f64>,
+    a2: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct LinkTable {
+    tip_mass: Option<f64>,
+    tip_inertia: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct PatchTable {
+    x_a: Option<f64>,
+    l_a: Option<f64>,
+    k_a: Option<f64>,
+    k_s: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct BoardTable {
+    film_range: Option<f64>,
+    amplifier_window: Option<[f64; 2]>,
+}
+
+impl Geometry {
+    /// Reads a geometry file; an error names the key (`` `table.key` ``, which
+    /// `flexarm_beam::config::at_line` turns into its line) and what is allowed.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let f: File =
+            toml::from_str(text).map_err(|e| flexarm_beam::config::toml_error(text, &e))?;
+        let d = Self::default();
+        let g = Self {
+            a1: f.arm.a1.unwrap_or(d.a1),
+            a2: f.arm.a2.unwrap_or(d.a2),
+            tip_mass: f.link.tip_mass.unwrap_or(d.tip_mass),
+            tip_inertia: f.link.tip_inertia.unwrap_or(d.tip_inertia),
+            x_a: f.patch.x_a.unwrap_or(d.x_a),
+            l_a: f.patch.l_a.unwrap_or(d.l_a),
+            k_a: f.patch.k_a.unwrap_or(d.k_a),
+            k_s: f.patch.k_s.unwrap_or(d.k_s),
+            film_range: f.board.film_range.unwrap_or(d.film_range),
+            amplifier_window: f
+                .board
+                .amplifier_window
+                .map_or(d.amplifier_window, |[a, b]| (a, b)),
+        };
+        g.validate()?;
+        Ok(g)
+    }
+
+    /// Every value finite and in its physical range; the patch on the link.
+    pub fn validate(&self) -> Result<(), String> {
+        let within = |key: &str, v: f64, lo: f64, hi: f64, unit: &str| {
+            if v.is_finite() && v >= lo && v <= hi {
+                Ok(())
+            } else {
+                Err(format!(
+                    "`{key}`: {v} {unit} is outside {lo:e} to {hi:e} {unit}"
+                ))
+            }
+        };
+        within("arm.a1", self.a1, 1e-3, 100.0, "m")?;
+        within("arm.a2", self.a2, 1e-3, 100.0, "m")?;
+        within("link.tip_mass", self.tip_mass, 0.0, 1e3, "kg")?;
+        within("link.tip_inertia", self.tip_inertia, 0.0, 1e3, "kg m^2")?;
+        within("patch.x_a", self.x_a, 0.0, self.a2, "m")?;
+        within("patch.l_a", self.l_a, 1e-4, self.a2 - self.x_a, "m")?;
+        within("patch.k_a", self.k_a, 1e-12, 1e6, "N m/V")?;
+        within("patch.k_s", self.k_s, 1e-12, 1e12, "V/rad")?;
+        within("board.film_range", self.film_range, 1e-6, 1e6, "V")?;
+        let (lo, hi) = self.amplifier_window;
+        if !(lo.is_finite() && hi.is_finite() && lo < 0.0 && hi > 0.0) {
+            return Err(format!(
+                "`board.amplifier_window`: [{lo}, {hi}] V must hold 0 strictly inside"
+            ));
+        }
+        Ok(())
+    }
+
+    /// The coupling `S = a1 m2 a2/2` a link of no mass but the payload would give, plus a
+    /// tenth [kg·m²]: where the flexible inertia fit's passes start at least
+    /// (`super::inertia::fit_inertia_flexible`).
+    pub fn s_floor(&self) -> f64 {
+        1.1 * self.a1 * self.a2 * self.tip_mass
+    }
+
+    /// `nominal` with this geometry's lengths.
+    pub fn arm(&self, nominal: &ArmParams<f64>) -> ArmParams<f64> {
+        ArmParams {
+            a1: self.a1,
+            a2: self.a2,
+            ..*nominal
+        }
+    }
+
+    /// The patch of this geometry with the slope differences `slope_diff`.
+    pub fn patch(&self, slope_diff: flexarm_core::Vector2<f64>) -> PiezoPatch<f64> {
+        PiezoPatch {
+            x_a: self.x_a,
+            l_a: self.l_a,
+            slope_diff,
+            k_a: self.k_a,
+            k_s: self.k_s,
+        }
+    }
+
+    /// The first `count` modes of a uniform link of mass `m_link` [kg] over `a2`, clamped at
+    /// joint 2, with the payload as a tip body (module docs); the first one near `omega1`
+    /// [rad/s] (the shapes do not depend on it).
+    pub fn shapes(
+        &self,
+        m_link: f64,
+        omega1: f64,
+        count: usize,
+    ) -> Result<Vec<Mode>, IdentifyError> {
+        let bad = |m: String| IdentifyError::Data(format!("gate `physical consistency`: {m}"));
+        if !(m_link.is_finite() && m_link > 0.0) {
+            return Err(bad(format!(
+                "the link's own mass comes out {m_link:.3e} kg (the inertia fit's S, less the geometry's payload of {} kg counted twice): the payload given is more than the arm's inertias allow",
+                self.tip_mass
+            )));
+        }
+        let rho_a = m_link / self.a2;
+        // A uniform cantilever's first mode: ω1 = 1.875² √(EI/(ρA L⁴)); a tip body lowers it,
+        // and the root finder brackets from there.
+        let ei = rho_a * self.a2.powi(4) * (omega1 / 3.516).powi(2);
+        let beam = SegmentedBeam::new(
+            &[Segment {
+                length: self.a2,
+                ei,
+                rho_a,
+            }],
+            self.tip_mass,
+            self.tip_inertia,
+        )
+        .map_err(|e| bad(format!("the link's shapes: {e}")))?;
+        beam.modes(count)
+            .map_err(|e| bad(format!("the link's shapes: {e}")))
+    }
+}

@@ -1,0 +1,902 @@
+//! The link's modes from any record with an input and the film: which inputs the record
+//! holds, its spectra, the number of modes from a stabilization diagram, every resonance with
+//! its uncertainty, and the controller's two (`docs/identification.md`).
+//!
+//! ## The model
+//! Linearized at rest, mode `j` of link 2 obeys (`flexarm_core::model`, `B_δδ = I`)
+//! `δ̈_j + 2ζ_jω_j δ̇_j + ω_j² δ_j = −(a1 cos θ2 · v_j + w_j) θ̈1 − w_j θ̈2 + k_a Δφ'_j V_a`,
+//! and the film reads `V_f = k_s Σ_j Δφ'_j δ_j` through its amplifier's high-pass `HP(s)`. With
+//! the joints held by a servo the hubs move with the link, and the film's response to the
+//! patch alone has the poles of the *held* arm, the link's coupled with the hold (on the
+//! paper's arm mode 1 moves by several per cent). The controller's model needs the *clamped*
+//! link's. With the base's motion measured and taken as an input, the clamped poles are the
+//! poles again: at `θ2 = ±π/2` the two joints' accelerations enter as one, `α̈ = θ̈1 + θ̈2`, and
+//! `V_f = HP(s) Σ_j (g_j V_a − c_j α̈) / (s² + 2ζ_jω_j s + ω_j²)` with `g_j = k_a k_s Δφ'_j²`
+//! (the piezo→film product per mode) and `c_j = k_s Δφ'_j w_j`. The base enters as the angle
+//! `α` with a numerator from `s²` on.
+//!
+//! ## Which inputs
+//! - the patch, when its command moves;
+//! - the base, when the joints travel at least [`MIN_TRAVEL`] encoder steps *and* something
+//!   other than the patch moved them: with the patch the only excitation, the base's motion is
+//!   the patch's response through the hold and the two inputs cannot be told apart (a fit
+//!   with both would split the response between them at will). The share of the base's power
+//!   the patch explains (their coherence over 20 of Welch's segments of the record, weighted
+//!   by the base's power) must stay under [`MAX_EXPLAINED`]; without the patch the base is the
+//!   only input (torque taps).
+//!
+//! Without the base the modes are the held arm's, and the report and the model step say so.
+//!
+//! ## The band and the spectra
+//! The band is what the inputs cover (the lines where the patch's power is within 30 dB of its
+//! peak, where the base's is ten times the encoders' quantization noise), from the third line
+//! up, to 0.4 of the sampling rate, or the user's. Spectra: [`super::spectra`].
+
+use rustfft::num_complex::Complex64;
+
+use super::IdentifyError;
+use super::order::{self, DiagramPole, Selection};
+use super::record::{self, Layout, ModesRecord};
+use super::spectra::{self, Method, Spectra};
+
+/// Encoder steps the base must travel before it is an input.
+pub const MIN_TRAVEL: f64 = 20.0;
+/// Samples a window starts before its pulse.
+const PRE: usize = 4;
+
+/// How a record is fitted.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitSettings {
+    /// The band [Hz]; `None`: from the record (module docs).
+    pub band: Option<(f64, f64)>,
+    /// The controller's modes, numbered from 1 upwards among those found.
+    pub keep: Vec<usize>,
+    /// Most modes the stabilization diagram makes room for.
+    pub max_modes: usize,
+    /// Welch's segment [s] for a stationary record; `None`: from the record.
+    pub segment: Option<f64>,
+}
+
+impl Default for FitSettings {
+    /// The band from the record, modes 1 and 2, room for 8, segments from the record.
+    fn default() -> Self {
+        Self {
+            band: None,
+            keep: vec![1, 2],
+            max_modes: 8,
+            segment: None,
+        }
+    }
+}
+
+/// An input of the fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Input {
+    /// The patch's command `V_a` [V].
+    Patch,
+    /// The base's angle `α = θ1 + θ2` [rad] (its acceleration drives the link).
+    Base,
+}
+
+impl Input {
+    /// Its name in the reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Input::Patch => "the patch's command v_a",
+            Input::Base => "the base's angle theta1 + theta2",
+        }
+    }
+}
+
+/// One resonance the fit found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IdentifiedMode {
+    /// `ω_j` [rad/s].
+    pub omega: f64,
+    /// `ζ_j` [-].
+    pub zeta: f64,
+    /// `g_j = k_a k_s Δφ'_j²`, the piezo→film product [V/V·(rad/s)²] (`NaN` without the patch).
+    pub piezo_film: f64,
+    /// `c_j = k_s Δφ'_j w_j` [V·s²/rad·(rad/s)²] (`NaN` without the base).
+    pub base_film: f64,
+    /// Standard deviations of `ω` [rad/s], `ζ`, `g` and `c` (module docs of `rational`).
+    pub sigma: [f64; 4],
+    /// Mean coherence over the mode's half-power band, where meaningful.
+    pub coherence: Option<f64>,
+    /// Orders of the stabilization diagram the mode was stable over.
+    pub stable: usize,
+}
+
+impl IdentifiedMode {
+    /// Frequency [Hz].
+    pub fn hz(&self) -> f64 {
+        self.omega / std::f64::consts::TAU
+    }
+}
+
+/// The modes fit's result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModesFit {
+    /// Every resonance found, ascending.
+    pub all: Vec<IdentifiedMode>,
+    /// The controller's modes (numbers into `all`, from 1), in the order asked.
+    pub kept: Vec<usize>,
+    /// The controller's modes themselves.
+    pub modes: Vec<IdentifiedMode>,
+    /// The inputs fitted.
+    pub inputs: Vec<Input>,
+    /// Why the modes are the held arm's, when the base is not an input.
+    pub held: Option<String>,
+    /// The band fitted [Hz].
+    pub band: (f64, f64),
+    /// The film amplifier's high-pass corner the fit found [Hz], if any.
+    pub highpass_hz: Option<f64>,
+    /// The spectra fitted.
+    pub spectra: Spectra,
+    /// The rational fit at the chosen order.
+    pub fit: super::rational::RationalFit,
+    /// The stabilization diagram.
+    pub diagram: Vec<DiagramPole>,
+    /// Room for modes of the chosen fit.
+    pub order: usize,
+    /// What the record held and what the fit chose, one sentence each.
+    pub notes: Vec<String>,
+}
+
+fn gate(name: &str, msg: String) -> IdentifyError {
+    IdentifyError::Data(format!("gate `{name}`: {msg}"))
+}
+
+/// `E(ω) = (e^{jωT} − 1)/(jωT)` at `f` [Hz]: how a command that changes at random instants
+/// between samples `T` [s] apart shows in the record (`super::modes`' docs).
+pub fn command_advance(f: f64, dt: f64) -> Complex64 {
+    let x = std::f64::consts::TAU * f * dt;
+    (Complex64::new(0.0, x).exp() - 1.0) / Complex64::new(0.0, x)
+}
+
+/// How much the output `y` of a window still rings at its end: the RMS of its last
+/// twentieth (from its first value) over its largest excursion.
+fn ringing(y: &[f64]) -> f64 {
+    let Some(&rest) = y.first() else {
+        return 0.0;
+    };
+    let peak = y.iter().map(|v| (v - rest).abs()).fold(0.0, f64::max);
+    let tail = &y[y.len() - y.len() / 20..];
+    let rms =
+        (tail.iter().map(|v| (v - rest).powi(2)).sum::<f64>() / tail.len().max(1) as f64).sqrt();
+    if peak > 0.0 { rms / peak } else { 0.0 }
+}
+
+/// A window rings at its end above this share of its peak: a transient term (a burst) or an
+/// exponential window (taps) takes it.
+const RINGING: f64 = 0.02;
+/// Taps whose response rings above this share when the next comes are refused.
+const MAX_RINGING: f64 = 0.1;
+
+/// How the spectra are to be taken.
+#[derive(Clone)]
+enum Plan {
+    /// Whole windows; `taps`: pulses at their starts.
+    Windows {
+        len: usize,
+        starts: Vec<usize>,
+        taps: bool,
+    },
+    /// Welch's segments.
+    Welch { len: usize },
+}
+
+/// Whether `x` changes in steps (at most one sample in twenty differs from the one before).
+fn changes_in_steps(x: &[f64]) -> bool {
+    let changes = x.windows(2).filter(|w| w[1] != w[0]).count();
+    changes > 0 && changes * 20 <= x.len()
+}
+
+/// The lines of `sp` inside `band`.
+fn restrict(sp: &Spectra, band: (f64, f64)) -> Spectra {
+    let keep: Vec<usize> = (0..sp.freq.len())
+        .filter(|&k| sp.freq[k] >= band.0 && sp.freq[k] <= band.1)
+        .collect();
+    let pick = |v: &[Vec<Complex64>]| keep.iter().map(|&k| v[k].clone()).collect();
+    Spectra {
+        freq: keep.iter().map(|&k| sp.freq[k]).collect(),
+        rows: keep.iter().map(|&k| sp.rows[k].clone()).collect(),
+        h: pick(&sp.h),
+        coherence: sp
+            .coherence
+            .as_ref()
+            .map(|c| keep.iter().map(|&k| c[k]).collect()),
+        input_power: sp
+            .input_power
+            .iter()
+            .map(|p| keep.iter().map(|&k| p[k]).collect())
+            .collect(),
+        ..sp.clone()
+    }
+}
+
+/// The band `[lo, hi]` [Hz] where `covered` holds densely: from the lowest covered line from
+/// which four fifths of the next octave's lines are covered, to the highest covered line
+/// below which four fifths of the octave before are.
+fn dense_band(freq: &[f64], covered: &[bool]) -> Option<(f64, f64)> {
+    // Covered lines before each index, for the share of any range at once.
+    let mut before = vec![0usize; freq.len() + 1];
+    for (k, ok) in covered.iter().enumerate() {
+        before[k + 1] = before[k] + usize::from(*ok);
+    }
+    let share = |lo: f64, hi: f64| {
+        let (a, b) = (
+            freq.partition_point(|f| *f < lo),
+            freq.partition_point(|f| *f <= hi),
+        );
+        if b > a {
+            (before[b] - before[a]) as f64 / (b - a) as f64
+        } else {
+            0.0
+        }
+    };
+    let lo = freq
+        .iter()
+        .zip(covered)
+        .find(|(f, ok)| **ok && share(**f, 2.0 * **f) >= 0.8)?
+        .0;
+    let hi = freq
+        .iter()
+        .zip(covered)
+        .rev()
+        .find(|(f, ok)| **ok && **f > *lo && share(**f / 2.0, **f) >= 0.8)?
+        .0;
+    Some((*lo, *hi))
+}
+
+/// Fits the record: which inputs, the spectra, the band, the stabilization diagram, every
+/// resonance and the controller's modes (module docs). Each refusal names its gate.
+pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, IdentifyError> {
+    record::check_channels(rec)?;
+    if set.keep.is_empty() || set.keep.contains(&0) {
+        return Err(IdentifyError::Data(format!(
+            "modes {:?} kept: number them from 1",
+            set.keep
+        )));
+    }
+    let dt = rec.dt;
+    let n = rec.v_f.len();
+    let top = 0.4 / dt;
+    let mut notes = Vec::new();
+    let alpha = rec.alpha();
+    let steps = [0, 1].map(|j| record::resolution(&rec.theta[j]));
+    let lsb = match steps {
+        [a, b] if a > 0.0 && b > 0.0 => a.min(b),
+        [a, b] => a.max(b),
+    };
+    let travel = if lsb > 0.0 {
+        (record::span(alpha.iter().copied()) / lsb).round()
+    } else {
+        0.0
+    };
+    let patch = record::span(rec.v_a.iter().copied()) > 0.0;
+    let base_moves = travel >= MIN_TRAVEL;
+    if !patch && !base_moves {
+        return Err(gate(
+            "excitation",
+            format!(
+                "no input: the patch's command never changes and the base moved {travel} encoder steps (at least {MIN_TRAVEL} make it an input): nothing the film's response can be referred to; a hammer's record is fitted by `identify decay`"
+            ),
+        ));
+    }
+    // The layout, from the excitation the lab drove: the patch's command, else the torque
+    // that moved most.
+    let torque =
+        if record::span(rec.tau[1].iter().copied()) >= record::span(rec.tau[0].iter().copied()) {
+            &rec.tau[1]
+        } else {
+            &rec.tau[0]
+        };
+    let primary: &[f64] = if patch { &rec.v_a } else { torque };
+    let layout = record::layout(&[(primary, 0.0)], dt);
+    // The inputs: the base when something other than the patch moved it.
+    let mut inputs = Vec::new();
+    if patch {
+        inputs.push(Input::Patch);
+    }
+    if base_moves {
+        inputs.push(Input::Base);
+    }
+    let mut held = (!base_moves).then(|| {
+        format!(
+            "the base moved {travel} encoder steps (fewer than {MIN_TRAVEL}): its motion is not resolved, so it is not an input"
+        )
+    });
+    if inputs.len() == 2 {
+        // How much of the base's motion the patch explains, from Welch's averages of the
+        // record (20 segments: a coherence that means something).
+        let probe = spectra::welch(
+            &rec.v_f,
+            &[&rec.v_a, &alpha],
+            dt,
+            welch_len(n, 2),
+            (0.0, top),
+        )?;
+        let (share, own) = base_explained(&probe, lsb, dt);
+        if share > MAX_EXPLAINED || own < MIN_OWN_MOTION {
+            inputs.pop();
+            held = Some(if share > MAX_EXPLAINED {
+                format!(
+                    "the base moved with the patch ({:.0} % of its motion's power is the patch's): the two cannot be told apart, so the base is not an input",
+                    100.0 * share
+                )
+            } else {
+                format!(
+                    "the base's motion apart from the patch's is {own:.3} of a white quantization noise (at least {MIN_OWN_MOTION}): nothing but the patch and the hold's jitter moved it, so it is not an input"
+                )
+            });
+        }
+    }
+    if let Some(h) = &held {
+        notes.push(format!("{h}; the modes are the held arm's"));
+    }
+    let series = |i: &Input| -> &[f64] {
+        match i {
+            Input::Patch => &rec.v_a,
+            Input::Base => &alpha,
+        }
+    };
+    let take = |plan: &Plan| -> Result<Spectra, IdentifyError> {
+        let u: Vec<&[f64]> = inputs.iter().map(series).collect();
+        let mut sp = match plan {
+            Plan::Windows { len, starts, taps } => {
+                let ring: Vec<f64> = starts
+                    .iter()
+                    .map(|s| ringing(&rec.v_f[*s..*s + len]))
+                    .collect();
+                let worst = ring.iter().copied().fold(0.0, f64::max);
+                if *taps {
+                    // No transient term for taps (`spectra`); an exponential window when
+                    // the response still rings at a window's end.
+                    if worst > MAX_RINGING {
+                        return Err(gate(
+                            "record length",
+                            format!(
+                                "taps {:.2} s apart: the film still rings at {:.0} % of its peak when the next one comes (at most {:.0} %): space them at least {:.1} s apart, or lengthen the record after the last",
+                                *len as f64 * dt,
+                                100.0 * worst,
+                                100.0 * MAX_RINGING,
+                                *len as f64 * dt * (1.0 / MAX_RINGING).ln() / (1.0 / worst).ln()
+                            ),
+                        ));
+                    }
+                    let a = if worst > RINGING {
+                        (1.0 / RINGING).ln() / (*len as f64 * dt)
+                    } else {
+                        0.0
+                    };
+                    let none = vec![false; starts.len()];
+                    spectra::windows(&rec.v_f, &u, dt, (*len, starts, &none, a), (0.0, top))?
+                } else {
+                    let ends: Vec<bool> = ring.iter().map(|r| *r > RINGING).collect();
+                    spectra::windows(&rec.v_f, &u, dt, (*len, starts, &ends, 0.0), (0.0, top))?
+                }
+            }
+            Plan::Welch { len } => spectra::welch(&rec.v_f, &u, dt, *len, (0.0, top))?,
+        };
+        // A command in steps at random instants between samples (module docs of `modes`).
+        if let Some(p) = inputs.iter().position(|i| *i == Input::Patch)
+            && changes_in_steps(&rec.v_a)
+        {
+            for (f, rows) in sp.freq.iter().zip(sp.rows.iter_mut()) {
+                let e = command_advance(*f, dt);
+                for r in rows {
+                    r.u[p] *= e;
+                }
+            }
+            for (f, h) in sp.freq.iter().zip(sp.h.iter_mut()) {
+                h[p] /= command_advance(*f, dt);
+            }
+        }
+        Ok(sp)
+    };
+    let whole = Plan::Windows {
+        len: n,
+        starts: vec![0],
+        taps: false,
+    };
+    let m = inputs.len();
+    let (plan, mut sp) = match &layout {
+        Layout::Pulses(p) => {
+            let starts: Vec<usize> = p.iter().map(|x| x.start.saturating_sub(PRE)).collect();
+            let gaps: Vec<usize> = starts.windows(2).map(|w| w[1] - w[0]).collect();
+            let last = n - starts.last().copied().unwrap_or(0);
+            let mut len = gaps.iter().copied().min().unwrap_or(last);
+            let mut starts = starts;
+            if last < len {
+                if 5 * last >= 4 * len || starts.len() == 1 {
+                    len = last;
+                } else {
+                    starts.pop();
+                }
+            }
+            notes.push(format!(
+                "{} taps of {}: each tap's window of {:.2} s transformed whole",
+                starts.len(),
+                if patch { "the patch" } else { "a motor" },
+                len as f64 * dt
+            ));
+            let plan = Plan::Windows {
+                len,
+                starts,
+                taps: true,
+            };
+            let sp = take(&plan)?;
+            if sp.shift > 0.0 {
+                notes.push(format!(
+                    "the film still rings when the next tap comes: an exponential window of {:.3} s⁻¹ (the fit evaluates at s = a + jω, so the poles need no correction)",
+                    sp.shift
+                ));
+            }
+            (plan, sp)
+        }
+        Layout::Burst { start, end } => {
+            notes.push(format!(
+                "one burst of excitation ({:.2}–{:.2} s) with rest after it: the whole record as one window",
+                *start as f64 * dt,
+                *end as f64 * dt
+            ));
+            let sp = take(&whole)?;
+            (whole.clone(), sp)
+        }
+        Layout::Stationary => {
+            // Welch where 10 m segments each resolve a mode of ζ = 0.02 at the band's bottom
+            // with four lines (100 periods of it); else the record whole.
+            let sp = take(&whole)?;
+            let low = coverage(&sp, &inputs, lsb, dt).map_or(1.0, |b| b.0);
+            let low = set.band.map_or(low, |b| b.0.max(low));
+            let need = match set.segment {
+                Some(s) => (s / dt).round() as usize,
+                None => ((RESOLVE_PERIODS / low) / dt).ceil() as usize,
+            };
+            let segments = (2 * n / need.max(1)).saturating_sub(1);
+            if set.segment.is_some() || segments >= spectra::COHERENCE_AVERAGES_PER_INPUT * m {
+                let plan = Plan::Welch { len: need };
+                let sp = take(&plan)?;
+                if let Method::Welch { len, segments } = sp.method {
+                    notes.push(format!(
+                        "a stationary record: Welch's spectra over {segments} segments of {:.2} s (Hann, half overlap)",
+                        len as f64 * dt
+                    ));
+                }
+                (plan, sp)
+            } else {
+                notes.push(format!(
+                    "a stationary record too short for Welch's segments ({} of {:.1} s would be needed to resolve the band's bottom, {low:.3} Hz, and average {} times): the whole record as one window, a transient term for its ends",
+                    spectra::COHERENCE_AVERAGES_PER_INPUT * m,
+                    need as f64 * dt,
+                    spectra::COHERENCE_AVERAGES_PER_INPUT * m
+                ));
+                (whole.clone(), sp)
+            }
+        }
+    };
+    // The band.
+    let covered_band = coverage(&sp, &inputs, lsb, dt);
+    let band = match set.band {
+        Some((lo, hi)) => {
+            if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo) {
+                return Err(IdentifyError::Data(format!(
+                    "a band of {lo}–{hi} Hz: give 0 < low < high"
+                )));
+            }
+            if let Some((clo, chi)) = covered_band
+                && (lo < 0.5 * clo || hi > 2.0 * chi)
+            {
+                return Err(gate(
+                    "excitation band",
+                    format!(
+                        "the inputs cover {clo:.3}–{chi:.1} Hz; the band asks {lo}–{hi} Hz: no excitation where the band reaches beyond it"
+                    ),
+                ));
+            }
+            (lo, hi.min(top))
+        }
+        None => {
+            let (clo, chi) = covered_band.ok_or_else(|| {
+                gate(
+                    "excitation band",
+                    "no band where an input's power stands above its floor".into(),
+                )
+            })?;
+            (clo.max(3.0 * sp.df()), chi.min(top))
+        }
+    };
+    let low: Vec<usize> = inputs
+        .iter()
+        .map(|i| if *i == Input::Base { 2 } else { 0 })
+        .collect();
+    let mut selection = order::select(&restrict(&sp, band), &low, band, set.max_modes)?;
+    // Welch's lines must resolve the modes' half-power bands (four lines each under the
+    // Hann window); else the whole record as one window.
+    if let Plan::Welch { .. } = plan {
+        let narrowest = selection
+            .modes_hz
+            .iter()
+            .filter_map(|f| mode_at(&selection, *f))
+            .map(|(w, z)| 2.0 * z * w / std::f64::consts::TAU)
+            .fold(f64::INFINITY, f64::min);
+        if narrowest < 4.0 * sp.df() {
+            notes.push(format!(
+                "Welch's lines {:.3} Hz apart are too coarse for a half-power band of {narrowest:.3} Hz: the whole record as one window instead",
+                sp.df()
+            ));
+            sp = take(&whole)?;
+            selection = order::select(&restrict(&sp, band), &low, band, set.max_modes)?;
+        }
+    }
+    // Why the band starts where it does: what a mode below it would need.
+    let bottom = match (set.band, covered_band) {
+        (Some(_), _) => Bottom::Asked,
+        (None, Some((clo, _))) if clo >= RESOLVED_LINES * sp.df() => Bottom::Excitation,
+        _ => Bottom::Length(n as f64 * dt, RESOLVED_LINES * sp.df()),
+    };
+    let resolved = RESOLVED_LINES * sp.df();
+    let sp = restrict(&sp, band);
+    let fit = finish(sp, selection, inputs, held, (band, resolved), set, notes)?;
+    lowest_is_first(&fit, bottom)?;
+    Ok(fit)
+}
+
+/// Where the band's bottom comes from.
+enum Bottom {
+    /// The user's `--band`.
+    Asked,
+    /// Where the excitation's power starts.
+    Excitation,
+    /// The record's resolution: its length [s], and the lowest mode it resolves [Hz].
+    Length(f64, f64),
+}
+
+/// The lowest mode a record resolves is `RESOLVED_LINES` lines up: there a mode of `ζ = 0.05`
+/// spans a line of its half-power band `2ζf`, and its period fits ten times in the record.
+const RESOLVED_LINES: f64 = 10.0;
+
+/// The gates `excitation band` and `record length`: mode 1 kept must be the link's first, and
+/// the fit can only vouch for that when the band reaches an octave below it (a collocated
+/// patch's response is flat below its first mode, so a mode there would have shown).
+fn lowest_is_first(fit: &ModesFit, bottom: Bottom) -> Result<(), IdentifyError> {
+    let (Some(first), true) = (fit.all.first(), fit.kept.contains(&1)) else {
+        return Ok(());
+    };
+    let f1 = first.hz();
+    let lo = match bottom {
+        Bottom::Length(_, resolved) => resolved.max(fit.band.0),
+        _ => fit.band.0,
+    };
+    if lo <= 0.5 * f1 {
+        return Ok(());
+    }
+    match bottom {
+        Bottom::Asked => Ok(()),
+        Bottom::Excitation => Err(gate(
+            "excitation band",
+            format!(
+                "the excitation covers the band from {lo:.3} Hz only: a mode below it would go unseen, so the lowest found ({f1:.3} Hz) is not known to be the link's first; excite down to {:.3} Hz (an octave below it), or name the band (--band) if no mode lies there",
+                0.5 * f1
+            ),
+        )),
+        Bottom::Length(seconds, _) => Err(gate(
+            "record length",
+            format!(
+                "a record of {seconds:.1} s resolves from {lo:.3} Hz only: too short for modes down to {:.3} Hz (an octave below the lowest found, {f1:.3} Hz): record at least {:.0} s",
+                0.5 * f1,
+                seconds * lo / (0.5 * f1)
+            ),
+        )),
+    }
+}
+
+/// Periods of the band's bottom a Welch segment must hold: four lines in the half-power band
+/// `2ζf` of a mode of `ζ = 0.02` there.
+const RESOLVE_PERIODS: f64 = 100.0;
+/// Share of the base's motion the patch may explain for the base to stay an input.
+const MAX_EXPLAINED: f64 = 0.9;
+/// The base's own motion (the power the patch does not explain) over a white quantization
+/// noise of `lsb²/12` a sample, at least, for the base to stay an input: a hold's jitter of a
+/// count or two is not an excitation the fit can use. That floor overstates a slowly moving
+/// encoder's noise, whose errors are not white: on the family a PD hold's jitter under a
+/// patch's chirp gives 0.004 to 0.02 of it, noise of 2 N·m on joint 2's torque 0.57 to 0.68;
+/// the threshold sits between.
+const MIN_OWN_MOTION: f64 = 0.1;
+
+/// Welch's segment for `n` samples and `m` inputs: the longest that still gives
+/// `10 m` averages with half overlap, so that the coherence means something (`spectra`).
+fn welch_len(n: usize, m: usize) -> usize {
+    let want = spectra::COHERENCE_AVERAGES_PER_INPUT * m.max(1);
+    (2 * n / (want + 1)).max(16)
+}
+
+/// The share of the base's power the patch explains, `Σ |G_12|²/G_11 / Σ G_22` over the
+/// lines, and the base's power the patch does not explain over the encoders' quantization
+/// floor, from Welch's spectra `sp` of the patch and the base (1 and 0 without the averages
+/// to tell: `spectra`).
+fn base_explained(sp: &Spectra, lsb: f64, dt: f64) -> (f64, f64) {
+    if sp.averages < spectra::COHERENCE_AVERAGES_PER_INPUT * 2 {
+        return (1.0, 0.0);
+    }
+    let floor = Floor::of(sp, lsb, dt);
+    // Welch's rows are G_{y u_j}, G_{u_i u_j} scaled by 1/√G_jj (`spectra`).
+    let (mut explained, mut total, mut noise) = (0.0, 0.0, 0.0);
+    for (rows, f) in sp.rows.iter().zip(&sp.freq) {
+        if rows.len() != 2 {
+            continue;
+        }
+        let g11 = rows[0].u[0].re.powi(2);
+        let g22 = rows[1].u[1].re.powi(2);
+        let g12 = rows[1].u[0] * rows[1].u[1].re;
+        if g11 > 0.0 {
+            explained += g12.norm_sqr() / g11;
+            total += g22;
+            noise += floor.at(*f);
+        }
+    }
+    if total > 0.0 {
+        (
+            explained / total,
+            (total - explained) / noise.max(f64::MIN_POSITIVE),
+        )
+    } else {
+        (1.0, 0.0)
+    }
+}
+
+/// The band the record's excitation covers (module docs): the patch's when it moves, else
+/// the base's; `None` when it covers none.
+fn coverage(sp: &Spectra, inputs: &[Input], lsb: f64, dt: f64) -> Option<(f64, f64)> {
+    // The first input is the record's excitation (the patch's, when it moves).
+    let input = inputs.first()?;
+    let power = &sp.input_power[0];
+    let peak = power.iter().copied().fold(0.0, f64::max);
+    let floor = Floor::of(sp, lsb, dt);
+    let covered: Vec<bool> = sp
+        .freq
+        .iter()
+        .zip(power)
+        .map(|(f, p)| match input {
+            Input::Patch => *p >= 1e-3 * peak && *p > 0.0,
+            Input::Base => *p >= 10.0 * floor.at(*f),
+        })
+        .collect();
+    dense_band(&sp.freq, &covered)
+}
+
+/// The expected power of an encoder's quantization noise (white, `lsb²/12` a sample) on one
+/// line of a record's spectra.
+struct Floor {
+    /// Per line, before the first difference Welch takes.
+    level: f64,
+    /// Welch's first difference (divided by the period `dt`): its gain at `f` scales `level`.
+    differenced: Option<f64>,
+}
+
+impl Floor {
+    fn of(sp: &Spectra, lsb: f64, dt: f64) -> Self {
+        let var = lsb * lsb / 12.0;
+        match &sp.method {
+            Method::Windows { len, .. } => {
+                // Σ of the exponential window's squares over a window.
+                let r = (-2.0 * sp.shift * dt).exp();
+                let taper = if r < 1.0 {
+                    (1.0 - r.powi(*len as i32)) / (1.0 - r)
+                } else {
+                    *len as f64
+                };
+                Self {
+                    level: sp.averages as f64 * taper * var,
+                    differenced: None,
+                }
+            }
+            // Hann-tapered: Σw² = 3 len / 8.
+            Method::Welch { len, segments } => Self {
+                level: *segments as f64 * 3.0 * *len as f64 / 8.0 * var,
+                differenced: Some(dt),
+            },
+        }
+    }
+
+    fn at(&self, f: f64) -> f64 {
+        match self.differenced {
+            Some(dt) => {
+                self.level * 2.0 * (1.0 - (std::f64::consts::TAU * f * dt).cos()) / (dt * dt)
+            }
+            None => self.level,
+        }
+    }
+}
+
+/// The chosen fit's pole nearest to `hz`, as `(ω, ζ)`.
+fn mode_at(sel: &Selection, hz: f64) -> Option<(f64, f64)> {
+    super::rational::modes(&sel.fit)
+        .0
+        .iter()
+        .min_by(|a, b| {
+            (a.omega / std::f64::consts::TAU - hz)
+                .abs()
+                .total_cmp(&(b.omega / std::f64::consts::TAU - hz).abs())
+        })
+        .map(|m| (m.omega, m.zeta))
+}
+
+/// The modes of the chosen fit, their products and spreads, and the controller's.
+fn finish(
+    sp: Spectra,
+    sel: Selection,
+    inputs: Vec<Input>,
+    held: Option<String>,
+    (band, resolved): ((f64, f64), f64),
+    set: &FitSettings,
+    mut notes: Vec<String>,
+) -> Result<ModesFit, IdentifyError> {
+    let fit = &sel.fit;
+    let (found, other) = super::rational::modes(fit);
+    let highpass_hz = other
+        .iter()
+        .filter(|p| p.re < 0.0)
+        .map(|p| p.norm() / std::f64::consts::TAU)
+        .filter(|f| *f < band.1)
+        .reduce(f64::min);
+    let hp = |p: Complex64| match highpass_hz {
+        Some(f) => p / (p + std::f64::consts::TAU * f),
+        None => Complex64::new(1.0, 0.0),
+    };
+    let tau = std::f64::consts::TAU;
+    let patch = inputs.iter().position(|i| *i == Input::Patch);
+    let base = inputs.iter().position(|i| *i == Input::Base);
+    // Σ g/(s² + 2ζωs + ω²) has the residue g / (2j Im p) at p; the base's angle enters as
+    // −s² c/(…): its residue is −p² c HP(p) / (2j Im p).
+    let product = |i: usize, p: Complex64, r: Complex64| -> f64 {
+        let k = Complex64::new(0.0, 2.0 * p.im) / hp(p);
+        if Some(i) == base {
+            (-r * k / (p * p)).re
+        } else {
+            (r * k).re
+        }
+    };
+    // The same order at the other weight: how far each number moves with it is part of its
+    // uncertainty (the residuals' covariance alone knows nothing of the model's own error).
+    let other_tilt = order::TILTS
+        .iter()
+        .copied()
+        .find(|t| *t != sel.tilt)
+        .unwrap_or(sel.tilt);
+    let other =
+        super::rational::fit(&sp, &order::shape(sel.chosen, &fit.low, other_tilt, false)).ok();
+    let other_modes = other
+        .as_ref()
+        .map_or(Vec::new(), |o| super::rational::modes(o).0);
+    let mut all = Vec::new();
+    for m in &found {
+        let hz = m.omega / tau;
+        if m.zeta <= 0.0
+            || !sel
+                .modes_hz
+                .iter()
+                .any(|f| (f / hz - 1.0).abs() < 2.0 * order::F_TOL)
+        {
+            continue;
+        }
+        let stable = sel
+            .diagram
+            .iter()
+            .filter(|p| (p.hz / hz - 1.0).abs() < 2.0 * order::F_TOL)
+            .map(|p| p.run + 1)
+            .max()
+            .unwrap_or(1);
+        let value = |i: usize| product(i, m.pole, fit.residue(i, m.pole));
+        let (sw, sz, sv) = fit.spread(m.pole, product);
+        // The other weight's estimate of this mode, if it has one within the tolerance.
+        let moved = other.as_ref().and_then(|o| {
+            let q = other_modes.iter().min_by(|a, b| {
+                (a.omega - m.omega)
+                    .abs()
+                    .total_cmp(&(b.omega - m.omega).abs())
+            })?;
+            ((q.omega / m.omega - 1.0).abs() < 2.0 * order::F_TOL).then(|| {
+                let v = |i: usize| product(i, q.pole, o.residue(i, q.pole));
+                (
+                    (q.omega - m.omega).abs(),
+                    (q.zeta - m.zeta).abs(),
+                    (0..inputs.len())
+                        .map(|i| (v(i) - value(i)).abs())
+                        .collect::<Vec<_>>(),
+                )
+            })
+        });
+        let both = |a: f64, b: Option<f64>| (a * a + b.map_or(0.0, |b| b * b / 4.0)).sqrt();
+        let half = (m.zeta * hz).max(sp.df());
+        let coherence = sp.coherence.as_ref().map(|c| {
+            let near: Vec<f64> = sp
+                .freq
+                .iter()
+                .zip(c)
+                .filter(|(x, _)| (**x - hz).abs() <= half)
+                .map(|(_, c)| *c)
+                .collect();
+            near.iter().sum::<f64>() / near.len().max(1) as f64
+        });
+        all.push(IdentifiedMode {
+            omega: m.omega,
+            zeta: m.zeta,
+            piezo_film: patch.map_or(f64::NAN, value),
+            base_film: base.map_or(f64::NAN, value),
+            sigma: [
+                both(sw, moved.as_ref().map(|d| d.0)),
+                both(sz, moved.as_ref().map(|d| d.1)),
+                patch.map_or(f64::NAN, |i| both(sv[i], moved.as_ref().map(|d| d.2[i]))),
+                base.map_or(f64::NAN, |i| both(sv[i], moved.as_ref().map(|d| d.2[i]))),
+            ],
+            coherence,
+            stable,
+        });
+    }
+    if patch.is_some() {
+        let reversed = all.iter().filter(|m| m.piezo_film < 0.0).count();
+        if reversed > 0 && reversed == all.len() {
+            return Err(gate(
+                "physical consistency",
+                "every piezo→film product comes out negative: the film's sign is reversed (run `flexarm bringup`, or flip the recording's v_f)".into(),
+            ));
+        }
+        // A collocated patch and film make every mode's product `k_a k_s Δφ'²` positive:
+        // a pole pair with a negative one is the fit's, not the link's.
+        let artefacts = all.iter().filter(|m| m.piezo_film <= 0.0).count();
+        if artefacts > 0 {
+            notes.push(format!(
+                "{artefacts} pole pair(s) with a negative piezo→film product left out (a collocated patch and film make it positive: the fit's, not the link's)"
+            ));
+        }
+        all.retain(|m| m.piezo_film > 0.0);
+    }
+    let list = all
+        .iter()
+        .map(|m| format!("{:.3} Hz", m.hz()))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let mut modes = Vec::new();
+    for &k in &set.keep {
+        let Some(m) = all.get(k - 1) else {
+            return Err(gate(
+                "modes",
+                format!(
+                    "mode {k} not seen: the fit found {} mode(s) in {:.3}–{:.1} Hz ({}); the excitation did not reach mode {k}, or it lies outside the band, or the record is too short for it (a record of {:.1} s resolves modes from {resolved:.2} Hz up)",
+                    all.len(),
+                    band.0,
+                    band.1,
+                    if list.is_empty() {
+                        "none".into()
+                    } else {
+                        list.clone()
+                    },
+                    RESOLVED_LINES / resolved
+                ),
+            ));
+        };
+        modes.push(*m);
+    }
+    notes.push(format!(
+        "the stabilization diagram: {} mode(s) stable over at least {} orders; the fit with room for {} mode(s)",
+        all.len(),
+        order::RUN + 1,
+        sel.chosen
+    ));
+    Ok(ModesFit {
+        all,
+        kept: set.keep.clone(),
+        modes,
+        inputs,
+        held,
+        band,
+        highpass_hz,
+        spectra: sp,
+        fit: sel.fit,
+        diagram: sel.diagram,
+        order: sel.chosen,
+        notes,
+    })
+}
