@@ -7,7 +7,7 @@
 use flexarm_core::Vector2;
 use flexarm_core::control::motor::MotorLaw;
 use flexarm_core::controller::Controller;
-use flexarm_core::drive::{Mode, MoveLimits};
+use flexarm_core::drive::{MAX_MOVE_TIME, Mode, MoveLimits};
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::trajectory::{JointTrajectory, Profile};
 use flexarm_core::tuning::Tuning;
@@ -81,6 +81,12 @@ pub fn pose(what: &str, theta: [f32; 2]) -> Result<(), ConsoleError> {
 
 /// A move's duration and ramps as the drive takes them: `0 < ramp ≤ time / 2`, finite.
 fn timing(time_flag: &str, time: f32, ramp: f32) -> Result<(), ConsoleError> {
+    if time > MAX_MOVE_TIME {
+        return usage(format!(
+            "{time_flag} {}: a move lasts at most {MAX_MOVE_TIME} s (the drive refuses longer ones)",
+            num(time)
+        ));
+    }
     match Profile::new(time, ramp) {
         Ok(_) => Ok(()),
         Err(_) => usage(format!(
@@ -168,6 +174,16 @@ pub fn path(points: &[Waypoint]) -> Result<(), (usize, String)> {
                 }
             }
         }
+    }
+    let total: f32 = points.iter().map(|w| w.dt).sum();
+    if total > MAX_MOVE_TIME {
+        return Err((
+            points.len().saturating_sub(1),
+            format!(
+                "the path lasts {} s: a move lasts at most {MAX_MOVE_TIME} s",
+                num(total)
+            ),
+        ));
     }
     Ok(())
 }

@@ -204,7 +204,7 @@ enum MoveKind {
     /// From the held pose to joint targets [rad].
     Trapezoid {
         /// Targets θ1,θ2 [rad].
-        #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         to: Vec<f32>,
         /// Duration [s].
         #[arg(long)]
@@ -216,7 +216,7 @@ enum MoveKind {
     /// One revolution of the tip from where it is held.
     Circle {
         /// Centre x,y in the base frame [m].
-        #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         centre: Vec<f32>,
         /// Radius [m].
         #[arg(long)]

@@ -110,7 +110,7 @@ impl Qemu {
                 "none",
             ])
             .arg("-serial")
-            .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on"))
+            .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"))
             .args(["-semihosting-config", "enable=on,target=native"])
             .arg("-icount")
             .arg(if realtime {

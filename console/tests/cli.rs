@@ -388,6 +388,33 @@ fn every_argument_is_checked_before_connecting() {
         ),
         (
             &[
+                "move",
+                "trapezoid",
+                "--to",
+                "0.5,0",
+                "--time",
+                "1e30",
+                "--ramp",
+                "1",
+            ],
+            "--time 1e30: a move lasts at most 3600 s",
+        ),
+        // A negative first value after a space (`--to -1,0`) is the flag's value, not a flag.
+        (
+            &[
+                "move",
+                "trapezoid",
+                "--to",
+                "-3.5,0",
+                "--time",
+                "2",
+                "--ramp",
+                "0.5",
+            ],
+            "θ1 = -3.5 rad is outside the drive's range",
+        ),
+        (
+            &[
                 "live",
                 "circle",
                 "--centre",
@@ -535,4 +562,95 @@ fn a_closed_stdout_ends_quietly() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(141), "{err}");
     assert!(err.is_empty(), "{err}");
+}
+
+/// SIGTERM during a move (what `kill`, a service manager or a closed terminal's SIGHUP sends)
+/// stops the arm before the tool exits, as Ctrl-C does; it used to end the tool at once, the arm
+/// still moving and a `--qemu` child still running (issue 36).
+#[test]
+fn a_terminate_signal_stops_the_move_before_the_tool_exits() {
+    use std::io::BufRead;
+    use std::process::Stdio;
+    use std::sync::atomic::{AtomicBool, Ordering::SeqCst};
+    use std::time::{Duration, Instant};
+    static MOVING: AtomicBool = AtomicBool::new(false);
+    static STOPPED: AtomicBool = AtomicBool::new(false);
+    fn moving(c: &Command) -> Option<Reply> {
+        match c {
+            Command::Move(_) => MOVING.store(true, SeqCst),
+            Command::Stop => STOPPED.store(true, SeqCst),
+            Command::Status => {
+                let mode = match MOVING.load(SeqCst) && !STOPPED.load(SeqCst) {
+                    true => Mode::Moving,
+                    false => Mode::Armed,
+                };
+                return Some(Reply::Status(Status {
+                    mode,
+                    fault: None,
+                    ticks: 0,
+                    loads: [Load::default(); 2],
+                    telemetry_dropped: 0,
+                    link_stops: 0,
+                    rx_bytes: 0,
+                    rx_lost: 0,
+                    stack_used: 0,
+                }));
+            }
+            _ => return ours(c),
+        }
+        Some(Reply::Done)
+    }
+    let at = format!("127.0.0.1:{}", firmware(moving));
+    let args = [
+        "--tcp",
+        &at,
+        "move",
+        "trapezoid",
+        "--to",
+        "0.3,0.1",
+        "--time",
+        "600",
+        "--ramp",
+        "1",
+    ];
+    let mut child = Process::new(env!("CARGO_BIN_EXE_flexarm"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    out.read_line(&mut line).unwrap();
+    assert!(line.contains("move trapezoid: started"), "{line}");
+    assert!(!STOPPED.load(SeqCst));
+    let kill = Process::new("sh")
+        .args(["-c", &format!("kill -TERM {}", child.id())])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "still running after SIGTERM"
+        );
+        thread::sleep(Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    assert!(STOPPED.load(SeqCst), "no Stop sent: {err}");
+    assert_eq!(status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("interrupted") && err.contains("stopped"),
+        "{err}"
+    );
 }

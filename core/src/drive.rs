@@ -157,6 +157,11 @@ pub enum MoveRequest<T> {
 /// Waypoints a path holds.
 pub const MAX_WAYPOINTS: usize = 32;
 
+/// The longest move a host may ask for [s]: a trapezoid's `move_time`, a circle's period, a
+/// path's whole duration. An hour: a slow move is a few minutes; a mistyped 1e30 s would start
+/// a move that stands still and never ends (issue 36).
+pub const MAX_MOVE_TIME: f32 = 3600.0;
+
 /// One waypoint of a joint path. The path runs one cubic segment ([`Cubic`]) into each
 /// waypoint, from rest at the held pose to rest at the last waypoint. At an interior waypoint
 /// each joint's speed is the time-weighted mean of the slopes `s_a`, `s_b` of its two
@@ -558,6 +563,9 @@ impl<T: Real> Drive<T> {
                 ramp_time,
                 clockwise,
             } => {
+                if period > T::c(f64::from(MAX_MOVE_TIME)) {
+                    return Err(Refused::OutOfRange);
+                }
                 let trajectory =
                     self.circle(motor, from, centre, radius, period, ramp_time, clockwise)?;
                 return Ok(Plan {
@@ -573,7 +581,7 @@ impl<T: Real> Drive<T> {
         let finite = [target.x, target.y, move_time, ramp_time]
             .iter()
             .all(|x| x.finite());
-        if !finite {
+        if !finite || move_time > T::c(f64::from(MAX_MOVE_TIME)) {
             return Err(Refused::OutOfRange);
         }
         let profile = Profile::new(move_time, ramp_time).map_err(|_| Refused::OutOfRange)?;
@@ -717,7 +725,11 @@ impl<T: Real> Drive<T> {
         let finite = points
             .iter()
             .all(|w| w.theta.x.finite() && w.theta.y.finite() && w.dt.finite());
-        if !finite || points.iter().any(|w| w.dt <= T::zero()) {
+        let total = points.iter().fold(T::zero(), |sum, w| sum + w.dt);
+        if !finite
+            || points.iter().any(|w| w.dt <= T::zero())
+            || total > T::c(f64::from(MAX_MOVE_TIME))
+        {
             return Err(Refused::OutOfRange);
         }
         if !points.iter().all(|w| self.inside(w.theta)) {

@@ -222,8 +222,15 @@ impl Session {
                         Ok(()) => Reply::Done,
                         Err(e) => Reply::Refused(tune_refusal(e)),
                     },
+                    // 0 turns the watchdog off; any other value is at least
+                    // MIN_LINK_TIMEOUT_PERIODS motor periods (a shorter one rounded to 0 and
+                    // turned it off unasked, issue 36).
                     Home::LinkTimeout => {
-                        drive.link_timeout = (v * id.motor_hz as f32) as u32;
+                        let periods = v * id.motor_hz as f32;
+                        if v != 0.0 && periods < MIN_LINK_TIMEOUT_PERIODS as f32 {
+                            return Reply::Refused(Refusal::OutOfRange);
+                        }
+                        drive.link_timeout = periods as u32;
                         Reply::Done
                     }
                     // Within the amplifier's window, while the drive holds.
@@ -397,6 +404,10 @@ pub fn refusal(r: Refused) -> Refusal {
         Refused::Waypoints => Refusal::Waypoints,
     }
 }
+
+/// The shortest link watchdog a `Set` gives [motor periods]: the watchdog counts whole motor
+/// periods, and a host's requests come a few periods apart at best.
+pub const MIN_LINK_TIMEOUT_PERIODS: u32 = 3;
 
 /// Where the running board keeps a parameter (its declaration's home,
 /// `flexarm_link::for_each_param!`).

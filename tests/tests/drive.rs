@@ -138,6 +138,9 @@ fn a_move_is_validated_whole_and_refused_with_its_reason() {
         (trapezoid([f32::NAN, 0.0], 2.0, 0.5), Refused::OutOfRange),
         (trapezoid([0.5, 0.0], 2.0, 1.5), Refused::OutOfRange),
         (trapezoid([0.5, 0.0], -1.0, 0.5), Refused::OutOfRange),
+        // Longer than MAX_MOVE_TIME (an hour), up to a mistyped 1e30 s.
+        (trapezoid([0.5, 0.0], 3601.0, 1.0), Refused::OutOfRange),
+        (trapezoid([0.5, 0.0], 1e30, 1.0), Refused::OutOfRange),
         (trapezoid([3.5, 0.0], 4.0, 1.0), Refused::Unreachable),
         (trapezoid([0.0, -2.75], 4.0, 1.0), Refused::Unreachable),
         // 2 rad in 0.5 s: 5.3 rad/s.
@@ -433,6 +436,7 @@ fn a_circle_starts_where_the_tip_is_held_and_is_refused_otherwise() {
         // One revolution in 0.8 s: too fast.
         (circle([0.65, 0.0], 0.2, 1.0), Refused::TooFast),
         (circle([0.65, 0.0], 0.2, f32::NAN), Refused::OutOfRange),
+        (circle([0.65, 0.0], 0.2, 1e7), Refused::OutOfRange),
         (circle([0.65, 0.0], -0.2, 4.0), Refused::OutOfRange),
     ] {
         assert_eq!(b.rig.start(&req), Err(why), "{req:?}");
@@ -531,6 +535,8 @@ fn a_waypoint_path_is_uploaded_in_chunks_validated_whole_and_tracked_without_ove
     bad(5, w(1.0, f32::NAN, 0.4), Refused::OutOfRange);
     bad(5, w(1.0, 0.0, 0.0), Refused::OutOfRange);
     bad(5, w(1.0, 0.0, 0.05), Refused::TooFast);
+    // A path longer than MAX_MOVE_TIME in all.
+    bad(5, w(1.0, 0.0, 3600.0), Refused::OutOfRange);
     b.rig
         .drive
         .load_waypoints(&b.rig.control.ctrl, 0, &pts)

@@ -9,6 +9,7 @@ use flexarm_link::msg::{
     Telemetry, Waypoint,
 };
 use flexarm_link::{Request, VERSION};
+use flexarm_machine::session::MIN_LINK_TIMEOUT_PERIODS;
 use flexarm_machine::simulated::SimulatedArm;
 use flexarm_sim::rig::Rig;
 use flexarm_tests::{firmware, rig};
@@ -196,6 +197,13 @@ fn every_parameter_is_read_written_at_rest_and_refused_while_moving_or_out_of_ra
         (Param::TauMax0, 1e3, Refusal::OutOfRange),
         (Param::VaMax, 1e6, Refusal::OutOfRange),
         (Param::LinkTimeout, -1.0, Refusal::OutOfRange),
+        // Shorter than three motor periods (0.004 s at the QEMU board's 100 Hz read back as
+        // 0, the watchdog off: issue 36).
+        (
+            Param::LinkTimeout,
+            (MIN_LINK_TIMEOUT_PERIODS as f32 - 0.5) / cfg.motor_hz() as f32,
+            Refusal::OutOfRange,
+        ),
         (Param::Kp0, 2e4, Refusal::OutOfRange),
         (Param::VaMin, 5.0, Refusal::OutOfRange),
     ] {
@@ -203,6 +211,9 @@ fn every_parameter_is_read_written_at_rest_and_refused_while_moving_or_out_of_ra
         assert_eq!(r.answer(Command::Set(p, v)), Reply::Refused(why), "{p:?}");
         assert_eq!(r.answer(Command::Get(p)), before, "{p:?} unchanged");
     }
+    // 0, given, turns the watchdog off.
+    assert_eq!(r.answer(Command::Set(Param::LinkTimeout, 0.0)), Reply::Done);
+    assert_eq!(r.drive.link_timeout, 0);
     // While a move runs: refused.
     assert_eq!(r.answer(Command::Arm), Reply::Done);
     assert_eq!(r.answer(trapezoid([0.3, 0.0], 2.0, 0.5)), Reply::Done);
