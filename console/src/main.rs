@@ -358,20 +358,14 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         }
         Action::Move(m) => {
             let (what, m) = to_move(m, path.as_deref())?;
+            let before = c.status()?;
             start_move(&mut c, what, m, path.as_deref())?;
             println!("{what}: started");
             // Stay on the line until the move has ended: the requests feed the link watchdog,
             // which would stop a move whose host went away.
             let ended = interrupt::follow_move(&mut c, what, &mut Vec::new(), None)?;
-            match ended.fault {
-                None => println!("{what}: ended, holding"),
-                Some(f) => {
-                    return Err(ConsoleError::Unexpected(format!(
-                        "the move ended in fault {f} ({})",
-                        fault_name(f)
-                    )));
-                }
-            }
+            move_outcome(what, &before, &ended)?;
+            println!("{what}: ended, holding");
         }
         Action::Record {
             seconds,
@@ -698,6 +692,30 @@ fn to_move(m: MoveKind, path: Option<&[Waypoint]>) -> Result<(&'static str, Move
             },
         ),
     })
+}
+
+/// How a move that is no longer running ended, from the drive's status before it started and
+/// after: `Ok` only when it ran to its end and holds there; a fault, a stop by the link watchdog
+/// (the host fell silent for the link timeout) or a disarm is an error that says which.
+fn move_outcome(what: &str, before: &Status, after: &Status) -> Result<(), ConsoleError> {
+    if let Some(f) = after.fault {
+        return Err(ConsoleError::Unexpected(format!(
+            "{what}: the move ended in fault {f} ({})",
+            fault_name(f)
+        )));
+    }
+    if after.link_stops > before.link_stops {
+        return Err(ConsoleError::Unexpected(format!(
+            "{what}: stopped short of its end by the link watchdog (no request reached the board for its link timeout); the arm holds where it stopped"
+        )));
+    }
+    if after.mode != Mode::Armed {
+        return Err(ConsoleError::Unexpected(format!(
+            "{what}: the drive left the move {:?}, not holding its end",
+            after.mode
+        )));
+    }
+    Ok(())
 }
 
 /// Uploads a path's waypoints in chunks, then starts the move (the caller says so: the live

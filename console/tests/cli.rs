@@ -654,3 +654,64 @@ fn a_terminate_signal_stops_the_move_before_the_tool_exits() {
         "{err}"
     );
 }
+
+/// A move the link watchdog cut short is reported as such, exit 1, not as "ended, holding"
+/// (issue 36: after a console pause it printed `ended, holding` and exited 0).
+#[test]
+fn a_move_the_watchdog_stopped_is_not_reported_as_ended() {
+    use std::sync::atomic::{AtomicU32, Ordering::SeqCst};
+    static STATUS_AFTER_MOVE: AtomicU32 = AtomicU32::new(0);
+    fn cut_short(c: &Command) -> Option<Reply> {
+        let moving = match c {
+            Command::Move(_) => {
+                STATUS_AFTER_MOVE.store(1, SeqCst);
+                return Some(Reply::Done);
+            }
+            Command::Status => match STATUS_AFTER_MOVE.load(SeqCst) {
+                0 => None,
+                n => {
+                    STATUS_AFTER_MOVE.store(n + 1, SeqCst);
+                    Some(n < 3)
+                }
+            },
+            _ => return ours(c),
+        };
+        // Moving for two polls, then holding with one watchdog stop counted.
+        Some(Reply::Status(Status {
+            mode: if moving == Some(true) {
+                Mode::Moving
+            } else {
+                Mode::Armed
+            },
+            fault: None,
+            ticks: 0,
+            loads: [Load::default(); 2],
+            telemetry_dropped: 0,
+            link_stops: u32::from(moving == Some(false)),
+            rx_bytes: 0,
+            rx_lost: 0,
+            stack_used: 0,
+        }))
+    }
+    let at = format!("127.0.0.1:{}", firmware(cut_short));
+    let o = flexarm(&[
+        "--tcp",
+        &at,
+        "move",
+        "trapezoid",
+        "--to",
+        "0.3,0.1",
+        "--time",
+        "2",
+        "--ramp",
+        "0.5",
+    ]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}{err}");
+    assert!(out.contains("move trapezoid: started"), "{out}");
+    assert!(!out.contains("ended, holding"), "{out}");
+    assert!(
+        err.contains("stopped short of its end by the link watchdog"),
+        "{err}"
+    );
+}
