@@ -829,7 +829,13 @@ fn print_status(s: &Status) {
         );
     }
     println!(
-        "motor periods {}, telemetry dropped {}, watchdog stops {}, received {} bytes ({} lost), stack {} bytes",
-        s.ticks, s.telemetry_dropped, s.link_stops, s.rx_bytes, s.rx_lost, s.stack_used
+        "motor periods {}, telemetry dropped {}, watchdog stops {}, received {} bytes ({} lost, {} malformed requests), stack {} bytes",
+        s.ticks,
+        s.telemetry_dropped,
+        s.link_stops,
+        s.rx_bytes,
+        s.rx_lost,
+        s.rx_malformed,
+        s.stack_used
     );
 }

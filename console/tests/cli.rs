@@ -74,6 +74,7 @@ fn ours(c: &Command) -> Option<Reply> {
             link_stops: 0,
             rx_bytes: 99,
             rx_lost: 0,
+            rx_malformed: 0,
             stack_used: 1700,
         }),
         Command::Arm => Reply::Done,
@@ -484,6 +485,7 @@ fn a_waypoint_file_is_uploaded_in_chunks_and_run() {
                 link_stops: 0,
                 rx_bytes: 0,
                 rx_lost: 0,
+                rx_malformed: 0,
                 stack_used: 0,
             })),
             other => ours(other),
@@ -593,6 +595,7 @@ fn a_terminate_signal_stops_the_move_before_the_tool_exits() {
                     link_stops: 0,
                     rx_bytes: 0,
                     rx_lost: 0,
+                    rx_malformed: 0,
                     stack_used: 0,
                 }));
             }
@@ -690,6 +693,7 @@ fn a_move_the_watchdog_stopped_is_not_reported_as_ended() {
             link_stops: u32::from(moving == Some(false)),
             rx_bytes: 0,
             rx_lost: 0,
+            rx_malformed: 0,
             stack_used: 0,
         }))
     }

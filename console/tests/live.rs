@@ -135,6 +135,7 @@ fn status(mode: Mode, fault: Option<u8>) -> Status {
         link_stops: 1,
         rx_bytes: 0,
         rx_lost: 0,
+        rx_malformed: 0,
         stack_used: 0,
     }
 }
