@@ -128,6 +128,25 @@ enum Action {
         #[arg(long)]
         force: bool,
     },
+    /// The figure of a trace file already written (a recording, `faults`', a simulator's run)
+    /// as `plot_trace.svg` in OUT (no board needed).
+    Plot {
+        /// The trace's CSV.
+        file: PathBuf,
+        /// The folder to write into (created; a file there no flexarm command wrote is kept
+        /// unless --force).
+        out: PathBuf,
+        /// Replace a `plot_trace.svg` that no flexarm command wrote.
+        #[arg(long)]
+        force: bool,
+    },
+    /// The shell's completion script for flexarm (bash, zsh, fish, elvish, powershell) on
+    /// stdout, for example `flexarm completions bash > ~/.local/share/bash-completion/completions/flexarm`
+    /// (no board needed).
+    Completions {
+        /// The shell.
+        shell: clap_complete::Shell,
+    },
     /// A guided first power-on: loop loads, each encoder's direction and scale (a nudge under
     /// a low torque limit), the film's sign and gain (a step of the patch's voltage); a
     /// pass/fail table, and the configuration line to change at the first failure.
@@ -273,6 +292,24 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
     {
         print!("{}", params::list());
         return Ok(());
+    }
+    // Offline: a trace's figure, the shell's completions.
+    match &cli.command {
+        Action::Plot { file, out, force } => {
+            let names = record::plot(file, out, *force)?;
+            println!("plot: wrote {} in {}", names.join(", "), out.display());
+            return Ok(());
+        }
+        Action::Completions { shell } => {
+            clap_complete::generate(
+                *shell,
+                &mut <Cli as clap::CommandFactory>::command(),
+                "flexarm",
+                &mut std::io::stdout(),
+            );
+            return Ok(());
+        }
+        _ => {}
     }
     // Offline: a recording against the simulator.
     if let Action::Compare {
@@ -544,7 +581,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             Command::TestAmplifierFault(state == "on"),
         )?,
         // Offline, handled before connecting.
-        Action::Compare { .. } => {}
+        Action::Compare { .. } | Action::Plot { .. } | Action::Completions { .. } => {}
     }
     Ok(())
 }

@@ -719,3 +719,65 @@ fn a_move_the_watchdog_stopped_is_not_reported_as_ended() {
         "{err}"
     );
 }
+
+/// `plot` draws a trace file already written, without a board; a file that is not a trace is
+/// one line naming it; `completions` prints a shell's script that knows the subcommands.
+#[test]
+fn plot_and_completions_need_no_board() {
+    let dir = std::env::temp_dir().join(format!("flexarm-plot-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    // A short trace in the simulator's format, written by the simulator's own writer.
+    let traj = flexarm_core::trajectory::JointTrajectory::Trapezoid(
+        flexarm_core::trajectory::Trapezoid::paper(),
+    );
+    let cfg = flexarm_sim::sim::SimConfig {
+        duration: 0.5,
+        tail_window: 0.25,
+        ..flexarm_sim::sim::SimConfig::default()
+    };
+    let (summary, trace) = flexarm_sim::sim::simulate(&cfg, &traj, true).unwrap();
+    let o = flexarm_sim::study::Outcome {
+        case: flexarm_sim::study::Case {
+            scenario: "short",
+            controller: "paper",
+            config: cfg,
+            trajectory: traj,
+        },
+        summary,
+        trace,
+    };
+    flexarm_sim::output::write_csv(&dir, &o).unwrap();
+    let csv = dir.join("short_paper.csv");
+    let out = dir.join("figures");
+    let o = flexarm(&["plot", csv.to_str().unwrap(), out.to_str().unwrap()]);
+    let (stdout, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{stdout}{err}");
+    assert!(stdout.contains("plot: wrote plot_trace.svg"), "{stdout}");
+    let svg = std::fs::read_to_string(out.join("plot_trace.svg")).unwrap();
+    assert!(
+        svg.starts_with("<svg") && svg.len() > 10_000,
+        "{}",
+        svg.len()
+    );
+    // Not a trace: named, nothing written.
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, "a,b\n1,2\n").unwrap();
+    fails_with(
+        &[
+            "plot",
+            bad.to_str().unwrap(),
+            dir.join("none").to_str().unwrap(),
+        ],
+        "bad.csv",
+    );
+    assert!(!dir.join("none").join("plot_trace.svg").exists());
+    // Completions.
+    let o = flexarm(&["completions", "bash"]);
+    let (script, _) = text(&o);
+    assert_eq!(o.status.code(), Some(0));
+    for word in ["flexarm", "move", "record", "plot", "completions", "--tcp"] {
+        assert!(script.contains(word), "{word}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
