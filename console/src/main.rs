@@ -51,6 +51,28 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
+enum ConfigAction {
+    /// Every parameter's value on stdout as a TOML file, with its unit, range and the build's
+    /// default (`*` where the value differs from it; `?` when the build is not reproduced).
+    Dump {
+        /// The model file the firmware was built from (default: the paper's fragment), for the
+        /// build's defaults.
+        #[arg(long)]
+        model: Option<PathBuf>,
+    },
+    /// The parameters whose values on the board differ from FILE's.
+    Diff {
+        /// A dump.
+        file: PathBuf,
+    },
+    /// Writes FILE's values to the board (at rest; each validated by the firmware).
+    Restore {
+        /// A dump.
+        file: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
 enum Action {
     /// The handshake and the status: mode, fault, loads, counters.
     Status,
@@ -128,6 +150,9 @@ enum Action {
         #[arg(long)]
         force: bool,
     },
+    /// The board's settings as a file: dump, diff against a dump, restore a dump.
+    #[command(subcommand)]
+    Config(ConfigAction),
     /// The figure of a trace file already written (a recording, `faults`', a simulator's run)
     /// as `plot_trace.svg` in OUT (no board needed).
     Plot {
@@ -320,6 +345,20 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
     {
         return compare(recording, *within, *force);
     }
+    // A dump's and a model file's mistakes before any connection too.
+    let dump = match &cli.command {
+        Action::Config(ConfigAction::Diff { file } | ConfigAction::Restore { file }) => {
+            Some(flexarm_console::config::parse(file)?)
+        }
+        _ => None,
+    };
+    let model = match &cli.command {
+        Action::Config(ConfigAction::Dump { model: Some(m) }) => Some(
+            std::fs::read_to_string(m)
+                .map_err(|e| ConsoleError::Usage(format!("{}: {e}", m.display())))?,
+        ),
+        _ => None,
+    };
     // A file's mistakes before any connection.
     let path = match &cli.command {
         Action::Move(MoveKind::Waypoints { file })
@@ -582,6 +621,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         )?,
         // Offline, handled before connecting.
         Action::Compare { .. } | Action::Plot { .. } | Action::Completions { .. } => {}
+        Action::Config(action) => config(&mut c, action, model.as_deref(), dump)?,
     }
     Ok(())
 }
@@ -729,6 +769,50 @@ fn to_move(m: MoveKind, path: Option<&[Waypoint]>) -> Result<(&'static str, Move
             },
         ),
     })
+}
+
+/// `config dump`, `diff` and `restore` (`flexarm_console::config`); `dump` is the file's
+/// values, read before connecting.
+fn config(
+    c: &mut Client,
+    action: ConfigAction,
+    model: Option<&str>,
+    dump: Option<Vec<(flexarm_link::msg::Param, f32)>>,
+) -> Result<(), ConsoleError> {
+    use flexarm_console::config;
+    let dump = dump.unwrap_or_default();
+    match action {
+        ConfigAction::Dump { .. } => {
+            let values = config::read(c)?;
+            let build = config::build_config(&c.hello, model);
+            print!("{}", config::text(&c.hello, &values, build.as_ref()));
+        }
+        ConfigAction::Diff { file } => {
+            let differ = config::diff(&config::read(c)?, &dump);
+            for (p, board, f) in &differ {
+                println!(
+                    "{}: board {board} {unit}, file {f} {unit}",
+                    p.info().name,
+                    unit = p.info().unit
+                );
+            }
+            println!(
+                "config diff: {} of {} differ from {}",
+                differ.len(),
+                dump.len(),
+                file.display()
+            );
+        }
+        ConfigAction::Restore { file } => {
+            let written = config::restore(c, &dump)?;
+            println!(
+                "config restore: wrote {} from {}",
+                written.join(", "),
+                file.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// How a move that is no longer running ended, from the drive's status before it started and

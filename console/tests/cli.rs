@@ -781,3 +781,87 @@ fn plot_and_completions_need_no_board() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `config dump` writes every parameter as a file that `config diff` and `config restore` read
+/// back; a dump with a mistake is named by file, line and key before any connection.
+#[test]
+fn config_dump_diff_and_restore() {
+    let dir = std::env::temp_dir().join(format!("flexarm-config-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let at = |port: u16| format!("127.0.0.1:{port}");
+    let o = flexarm(&["--tcp", &at(firmware(ours)), "config", "dump"]);
+    let (dump, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    // Every parameter, its unit and range; the stand-in's build is not one the console
+    // reproduces: its defaults are unknown.
+    for p in flexarm_link::params::PARAMS {
+        assert!(
+            dump.contains(&format!("\n{} = 30.0 # [{}]", p.name, p.unit)),
+            "{} in\n{dump}",
+            p.name
+        );
+    }
+    assert!(dump.contains("params_hash = \"12345678\"") && dump.contains("build default ?"));
+    // (The stand-in answers 30 to every get; a board's va_min is negative.)
+    let dump = dump.replace("\nva_min = 30.0", "\nva_min = -30.0");
+    let file = dir.join("dump.toml");
+    std::fs::write(&file, dump.replace("\nkc = 30.0", "\nkc = 3.0")).unwrap();
+    let o = flexarm(&[
+        "--tcp",
+        &at(firmware(ours)),
+        "config",
+        "diff",
+        file.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(out.contains("kc: board 30 s, file 3 s"), "{out}");
+    assert!(out.contains("va_min: board 30 V, file -30 V"), "{out}");
+    assert!(
+        out.contains(&format!(
+            "config diff: 2 of {} differ",
+            flexarm_link::params::PARAMS.len()
+        )),
+        "{out}"
+    );
+    let o = flexarm(&[
+        "--tcp",
+        &at(firmware(ours)),
+        "config",
+        "restore",
+        file.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(
+        out.contains("config restore: wrote") && out.contains("kc") && !out.contains("va_bias"),
+        "{out}"
+    );
+    // Mistakes, before connecting (nothing listens on port 1).
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, dump.replace("\nkc = 30.0", "\nnope = 1.0")).unwrap();
+    let line = dump.lines().position(|l| l.starts_with("kc = ")).unwrap() + 1;
+    fails_with(
+        &[
+            "--tcp",
+            "127.0.0.1:1",
+            "config",
+            "restore",
+            bad.to_str().unwrap(),
+        ],
+        &format!("bad.toml:{line}: `params.nope`: no such parameter"),
+    );
+    std::fs::write(&bad, dump.replace("\nkc = 30.0", "\nkc = -5.0")).unwrap();
+    fails_with(
+        &[
+            "--tcp",
+            "127.0.0.1:1",
+            "config",
+            "diff",
+            bad.to_str().unwrap(),
+        ],
+        "`params.kc`: -5 is outside its range",
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
