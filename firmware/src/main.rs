@@ -388,6 +388,15 @@ mod app {
     fn serve(cx: &mut idle::Context, request: flexarm_link::Request) {
         use crate::link;
         use rtic::mutex::prelude::*;
+        // A retried request (its reply was lost) gets the first answer, not applied again.
+        if let Some(reply) = cx.local.session.repeated(&request) {
+            let reply = flexarm_link::msg::DeviceMsgRef::Reply {
+                id: request.id,
+                reply: &reply,
+            };
+            link::send(cx.local.serial, &reply);
+            return;
+        }
         let sensed = cx.shared.board.lock(period::sense);
         let load = |s: &stats::TaskStats| flexarm_link::msg::Load {
             mean_cycles: s.mean(),
@@ -413,29 +422,22 @@ mod app {
             cx.shared.board.lock(|b| b.inject_amplifier_fault(on));
         }
         let session = &mut cx.local.session;
-        // A retried request (its reply was lost) gets the first answer, not applied again.
-        let reply = match session.repeated(&request) {
-            Some(reply) => reply,
-            None => {
-                let kind = session::Kind::of(&request.command);
-                let reply = match request.command {
-                    flexarm_link::Command::Move(m) => session::start_move(
-                        m,
-                        &mut cx.shared.control,
-                        &mut cx.shared.drive,
-                        cx.local.snapshot,
-                    ),
-                    command => (
-                        &mut cx.shared.control,
-                        &mut cx.shared.drive,
-                        &mut cx.shared.recorder,
-                    )
-                        .lock(|c, d, r| session.answer(command, c, d, r, &io)),
-                };
-                session.remember(request.id, kind, &reply);
-                reply
-            }
+        let kind = session::Kind::of(&request.command);
+        let reply = match request.command {
+            flexarm_link::Command::Move(m) => session::start_move(
+                m,
+                &mut cx.shared.control,
+                &mut cx.shared.drive,
+                cx.local.snapshot,
+            ),
+            command => (
+                &mut cx.shared.control,
+                &mut cx.shared.drive,
+                &mut cx.shared.recorder,
+            )
+                .lock(|c, d, r| session.answer(command, c, d, r, &io)),
         };
+        session.remember(request.id, kind, &reply);
         link::send(
             cx.local.serial,
             &flexarm_link::msg::DeviceMsgRef::Reply {
