@@ -530,7 +530,7 @@ fn main_result(cli: Cli) -> Result<()> {
                     let text = std::fs::read_to_string(p)
                         .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
                     flexarm_sim::identify::geometry::Geometry::parse(&text)
-                        .map_err(|e| flexarm_beam::config::at_line(p, &text, &e))?
+                        .map_err(|e| flexarm_beam::toml_at::at_line(p, &text, &e))?
                 }
                 None => flexarm_sim::identify::geometry::Geometry::default(),
             };

@@ -117,15 +117,16 @@ struct PatchTable {
 #[serde(deny_unknown_fields)]
 struct BoardTable {
     film_range: Option<f64>,
+    #[serde(default, deserialize_with = "flexarm_beam::toml_at::option_array")]
     amplifier_window: Option<[f64; 2]>,
 }
 
 impl Geometry {
     /// Reads a geometry file; an error names the key (`` `table.key` ``, which
-    /// `flexarm_beam::config::at_line` turns into its line) and what is allowed.
+    /// `flexarm_beam::toml_at::at_line` turns into its line) and what is allowed.
     pub fn parse(text: &str) -> Result<Self, String> {
         let f: File =
-            toml::from_str(text).map_err(|e| flexarm_beam::config::toml_error(text, &e))?;
+            toml::from_str(text).map_err(|e| flexarm_beam::toml_at::de_error(text, &e))?;
         let d = Self::default();
         let g = Self {
             a1: f.arm.a1.unwrap_or(d.a1),
