@@ -855,6 +855,51 @@ fn identify_decay_checks_a_model_file() {
     }
 }
 
+/// `identify decay --record` on a lab's record tapped by joint 2's motor (the light arm of
+/// the family, `flexarm_sim::lab`): the report says what the record held (five torque pulses
+/// 20 s apart, not the plan's ten taps of the patch), lists every mode the pencil found, and
+/// says how the models were tapped instead.
+#[test]
+fn identify_decay_reads_a_torque_tapped_record() {
+    use flexarm_sim::identify::family::{Kind, family};
+    let arm = family().into_iter().find(|a| a.name == "light").unwrap();
+    let bench = arm.bench().unwrap();
+    let plan = flexarm_sim::lab::sized(&Kind::TorqueTaps.plan(&bench), 0.4).unwrap();
+    let record = scratch(
+        "torque_taps.csv",
+        &flexarm_sim::output::trace_csv(&flexarm_sim::lab::record(&plan).unwrap()),
+    );
+    let out = fresh_dir("identify-decay-torque");
+    let (ok, stdout, stderr) = sim(&[
+        "identify",
+        "decay",
+        "--record",
+        record.to_str().unwrap(),
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains("The record held 5 torque pulses on joint 2")
+            && stdout.contains("20.00 s apart")
+            && stdout.contains("the record's taps are not the patch's"),
+        "{stdout}"
+    );
+    let measured = stdout
+        .lines()
+        .find(|l| l.starts_with("| measured |"))
+        .unwrap();
+    let head = stdout.lines().find(|l| l.contains("f1 [Hz]")).unwrap();
+    let modes = measured.split('|').count() - 4;
+    assert!(modes >= 4 && modes % 2 == 0, "{measured}");
+    assert!(head.contains(&format!("f{} [Hz]", modes / 2)), "{head}");
+    assert_eq!(
+        names_in(&out),
+        [".flexarm-outputs", "decay.csv", "decay.md"]
+    );
+}
+
 /// Runs `args` with `{}` replaced by a scratch file of `text`; the error's first words.
 fn refusal(name: &str, text: &str, args: &[&str]) -> String {
     let p = scratch(name, text);

@@ -8,7 +8,7 @@ use flexarm_core::Vector2;
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::params::ArmParams;
 
-use super::decay::{self, DecayFit, DecayPlan, DecaySettings};
+use super::decay::{self, DecayFit, DecayPlan, DecaySettings, Tapper};
 use super::geometry::Geometry;
 use super::inertia::{self, InertiaFit, InertiaPlan, Rigid};
 use super::modal::{self, FitSettings, ModesFit};
@@ -349,9 +349,11 @@ pub fn decay_step(
     .map_err(naming(record))
 }
 
-/// Fits the decay record `trace` (its film ADC's range [V] and amplifier window [V]) of the
-/// experiment `plan`, predicts each of `models` on `board` (the same experiment on the
-/// controller built from the model, the model its plant) and writes `decay.md`, `decay.csv`
+/// Fits the decay record `trace` (its film ADC's range [V] and amplifier window [V]; tapped by
+/// the patch, a motor or a hammer), predicts each of `models` on `board` (the same experiment
+/// on the controller built from the model, the model its plant: the record's patch command
+/// replayed, or `plan`'s taps at the record's pose when a motor or a hammer tapped it) and
+/// writes `decay.md`, `decay.csv`
 /// and, with `plots`, `decay.svg` into `dir`. Returns the fit and the report.
 pub fn save_decay(
     dir: &Path,
@@ -369,26 +371,43 @@ pub fn save_decay(
         ..d
     };
     let measured = decay::fit_decay(&rec, &set).map_err(|e| e.to_string())?;
-    let (ex, seconds) = decay::replay(trace).map_err(|e| e.to_string())?;
+    // The patch's taps are replayed on each model; a motor's pulses or a hammer's strikes
+    // cannot be (the model's controller holds the joints, and the truth plant alone takes a
+    // strike): the models are tapped by the plan's patch taps at the record's pose instead.
+    let (replayed, how) = match measured.held.tapper {
+        Tapper::Patch => (
+            decay::replay(trace).map_err(|e| e.to_string())?,
+            "each model's row is the same experiment on the controller built from it (the record's patch command replayed), the model its plant".to_string(),
+        ),
+        _ => {
+            let pose = trace.first().map_or(plan.pose, |x| x.q_d);
+            let taps = DecayPlan { pose, ..*plan };
+            (
+                (taps.excitation().map_err(|e| e.to_string())?, taps.seconds()),
+                format!(
+                    "the record's taps are not the patch's, so each model's row taps the controller built from it with the patch instead ({} taps of ±{} V for {} s, {} s apart), the model its plant: the poles are the model's whatever taps them, the amplitudes are not",
+                    taps.taps, taps.volts, taps.width, taps.spacing
+                ),
+            )
+        }
+    };
     let mut predictions = Vec::new();
     for (name, arm, patch) in models {
-        let p = decay::predict(board, arm, patch, (&ex, seconds), &set)
+        let p = decay::predict(board, arm, patch, (&replayed.0, replayed.1), &set)
             .map_err(|e| format!("predicting with the {name}: {e}"))?;
         predictions.push((*name, p));
     }
     let text = format!(
         "# The held arm's free decay
 
-Joints held at (0, π/2) rad, the piezo loop off; {} taps of the patch (±{} V for {} s, {} s apart); the film's decays averaged and fitted by the matrix pencil in {}–{:.0} Hz (`docs/identification.md`). These are the held arm's modes, the link's coupled with the servo: each model's row is the same experiment on the controller built from it, the model its plant, and its error against the measured decay.
+The record held {}; {} decays averaged, fitted by the matrix pencil in {}–{:.0} Hz (`docs/identification.md`); every mode found is listed. These are the held arm's modes, the link's coupled with the hold: {how}, and its error against the measured decay.
 
 {}",
+        measured.held,
         measured.taps,
-        plan.volts,
-        plan.width,
-        plan.spacing,
         set.band.0,
         set.band.1,
-        report::decay_report(&measured, set.modes, &predictions)
+        report::decay_report(&measured, &predictions)
     );
     write(dir, "decay.md", &text)?;
     write(dir, "decay.csv", &report::decay_csv(&measured))?;
