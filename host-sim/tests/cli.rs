@@ -900,6 +900,98 @@ fn identify_decay_reads_a_torque_tapped_record() {
     );
 }
 
+/// Bad records through the command line: the film at its ADC's range, the patch's command at
+/// the amplifier's window, a torque at its drive's limit (each on a bench whose board clips it,
+/// the geometry file saying so), a trace without its film column: each refused in one line
+/// that names the file and the gate, exit status 1, nothing written.
+#[test]
+fn identify_refuses_clipped_records_and_missing_channels() {
+    use flexarm_sim::identify::family::{Kind, family};
+    use flexarm_sim::lab::Shape;
+    let arm = family().into_iter().find(|a| a.name == "light").unwrap();
+    // Ten seconds of noise on the patch (100 V) and on joint 2 (2 N·m) on `bench`.
+    let record = |name: &str, bench: flexarm_sim::sim::SimConfig| {
+        let mut plan = Kind::Random.plan(&bench);
+        for e in &mut plan.excite {
+            if let Shape::Random { seconds, .. } = &mut e.shape {
+                *seconds = 10.0;
+            }
+        }
+        let trace = flexarm_sim::lab::record(&plan).unwrap();
+        scratch(name, &flexarm_sim::output::trace_csv(&trace))
+    };
+    let mut film = arm.bench().unwrap();
+    film.sensors.adc_range = 0.05;
+    let mut window = arm.bench().unwrap();
+    (window.limits.v_a_min, window.limits.v_a_max) = (-30.0, 30.0);
+    let mut torque = arm.bench().unwrap();
+    torque.limits.tau_max = flexarm_core::Vector2::new(0.5, 0.5);
+    let clipped_film = record("clipped_film.csv", film);
+    let no_film = scratch(
+        "no_film.csv",
+        &std::fs::read_to_string(&clipped_film)
+            .unwrap()
+            .lines()
+            .map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n")
+            .collect::<String>(),
+    );
+    let cases = [
+        (
+            "modes",
+            clipped_film,
+            "[board]\nfilm_range = 0.05\n",
+            "gate `clipping`: `v_f` is clipped",
+        ),
+        (
+            "modes",
+            record("clipped_patch.csv", window),
+            "[board]\namplifier_window = [-30.0, 30.0]\n",
+            "gate `clipping`: `v_a` is clipped",
+        ),
+        (
+            "inertia",
+            record("saturated_torque.csv", torque),
+            "[board]\ntorque_limit = [0.5, 0.5]\n",
+            "gate `clipping`: `tau2` is saturated",
+        ),
+        (
+            "decay",
+            no_film,
+            "",
+            ":1: gate `channels`: the column(s) `v_f_V` missing",
+        ),
+    ];
+    for (step, file, board, needle) in cases {
+        let geometry = scratch("board.toml", board);
+        let bad = fresh_dir("identify-clipped");
+        let out = Command::new(env!("CARGO_BIN_EXE_flexarm-sim"))
+            .args([
+                "identify",
+                step,
+                "--record",
+                file.to_str().unwrap(),
+                "--arm",
+                geometry.to_str().unwrap(),
+                "--out",
+                bad.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{step}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains(needle) && stderr.contains(file.file_name().unwrap().to_str().unwrap()),
+            "{needle} not in {stderr}"
+        );
+        assert!(
+            !bad.exists() || names_in(&bad).is_empty(),
+            "wrote {:?}",
+            names_in(&bad)
+        );
+    }
+}
+
 /// Runs `args` with `{}` replaced by a scratch file of `text`; the error's first words.
 fn refusal(name: &str, text: &str, args: &[&str]) -> String {
     let p = scratch(name, text);

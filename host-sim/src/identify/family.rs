@@ -304,6 +304,7 @@ impl FamilyArm {
             l_a: self.patch.l_a,
             k_a: c.k_a,
             k_s: c.k_s,
+            torque_limit: self.bench()?.limits.tau_max.cast::<f64>().into(),
             ..Geometry::default()
         })
     }
@@ -382,15 +383,16 @@ pub fn identify_arm(
             .filter(|f| f.held.is_none())
             .map(|f| (*k, f))
     });
-    let inertia = match clamped {
-        Some((_, fit)) => {
-            fit_inertia_flexible(&swing_trace, geometry.a1, geometry.s_floor(), &|s| {
-                coupling(&geometry, fit, s)
-            })
-        }
-        None => fit_inertia(&swing_trace),
-    }
-    .map_err(|e| e.to_string());
+    let inertia = super::record::check_torques(&swing_trace, geometry.torque_limit)
+        .and_then(|()| match clamped {
+            Some((_, fit)) => {
+                fit_inertia_flexible(&swing_trace, geometry.a1, geometry.s_floor(), &|s| {
+                    coupling(&geometry, fit, s)
+                })
+            }
+            None => fit_inertia(&swing_trace),
+        })
+        .map_err(|e| e.to_string());
     let check = (|| {
         let (kind, fit) = clamped.ok_or("no record found the clamped modes")?;
         let inertia = inertia

@@ -148,6 +148,67 @@ pub fn check_channels(rec: &ModesRecord) -> Result<(), IdentifyError> {
     Ok(())
 }
 
+/// Share of a torque's samples at its drive's limit above which the record is refused as
+/// saturated: a drive at its limit does not give what its command asks, and a fit that reads
+/// the torque (the inertias') charges the difference to the arm. A tap at the limit is short
+/// (five 20 ms taps are 0.1 % of a 100 s record) and the decay after it is free.
+pub const SATURATED_SHARE: f64 = 0.01;
+
+/// The gate `clipping` on the torques of `trace`: each joint's `tau` at its drive's limit
+/// `±limit` [N·m] for at most [`SATURATED_SHARE`] of the samples.
+pub fn check_torques(trace: &[Sample], limit: [f64; 2]) -> Result<(), IdentifyError> {
+    let n = trace.len();
+    for (j, l) in limit.iter().enumerate() {
+        let at = trace
+            .iter()
+            .filter(|s| s.tau[j].abs() >= l * (1.0 - 1e-6))
+            .count();
+        if at as f64 > SATURATED_SHARE * n as f64 {
+            return Err(IdentifyError::Data(format!(
+                "gate `clipping`: `tau{}` is saturated: {at} of {n} samples ({:.1} %) at the drive's limit ±{l} N·m, at most {} %: lower the excitation or slow the moves",
+                j + 1,
+                100.0 * at as f64 / n as f64,
+                100.0 * SATURATED_SHARE
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A record read from the trace CSV `path` (`crate::output::read_csv`), its header checked
+/// first: a header that names some of the trace's columns but not all is refused with the
+/// gate `channels` and the columns missing.
+pub fn read_record(path: &std::path::Path) -> Result<Vec<Sample>, String> {
+    use std::io::{BufRead, Read};
+    let shown = path.display();
+    let file = std::fs::File::open(path).map_err(|e| format!("{shown}: {e}"))?;
+    let mut first = String::new();
+    std::io::BufReader::new(file)
+        .take(4096)
+        .read_line(&mut first)
+        .map_err(|e| format!("{shown}:1: {e}"))?;
+    let names: Vec<&str> = first
+        .trim_start_matches('\u{feff}')
+        .trim()
+        .split(',')
+        .map(str::trim)
+        .collect();
+    let columns: Vec<&str> = crate::output::CSV_HEADER.split(',').collect();
+    let missing: Vec<String> = columns
+        .iter()
+        .filter(|c| !names.contains(c))
+        .map(|c| format!("`{c}`"))
+        .collect();
+    if !missing.is_empty() && missing.len() < columns.len() {
+        return Err(format!(
+            "{shown}:1: gate `channels`: the column(s) {} missing (a trace has {})",
+            missing.join(", "),
+            crate::output::CSV_HEADER
+        ));
+    }
+    crate::output::read_csv(path)
+}
+
 /// An encoder's step [rad] as the record shows it: the smallest change between two samples
 /// (0 when the angle never changes); changes under 1 µrad are the trace's rounding (eight
 /// significant digits), not a step.

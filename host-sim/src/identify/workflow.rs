@@ -16,7 +16,7 @@ use super::model::{self, closed_loop, identified_model};
 use super::modes::{self, ModesPlan};
 use super::record::ModesRecord;
 use super::report;
-use crate::output::{read_csv, trace_csv};
+use crate::output::trace_csv;
 use crate::sim::{Sample, SimConfig};
 
 /// Where the experiments run and what is known of the plant.
@@ -70,7 +70,7 @@ fn record_or_run(
     run: impl FnOnce() -> Result<Vec<Sample>, super::IdentifyError>,
 ) -> Result<Vec<Sample>, String> {
     match record {
-        Some(p) => read_csv(p),
+        Some(p) => super::record::read_record(p),
         None => {
             let trace = run().map_err(|e| e.to_string())?;
             save_record(b.dir, name, &trace)?;
@@ -151,20 +151,30 @@ pub fn inertia_step(
         inertia::inertia_experiment(b.cfg, &InertiaPlan::default())
     })?;
     let truth = b.known.then(|| Rigid::of(&b.cfg.arm));
-    save_inertia(b.dir, &trace, truth, modes.map(|m| (b.geometry, m))).map_err(naming(record))
+    let geometry = match record {
+        Some(_) => *b.geometry,
+        None => Geometry {
+            torque_limit: b.cfg.limits.tau_max.cast::<f64>().into(),
+            ..*b.geometry
+        },
+    };
+    save_inertia(b.dir, &trace, truth, &geometry, modes).map_err(naming(record))
 }
 
-/// Fits the inertia record `trace` (with the modes of a modes fit on a geometry taken out of
-/// the torques, when given) and writes `inertia.md` into `dir` (against `truth` when known).
+/// Fits the inertia record `trace` of an arm of geometry `g` (its torques within the drives'
+/// limits, `super::record::check_torques`; with the modes of a modes fit taken out of the
+/// torques, when given) and writes `inertia.md` into `dir` (against `truth` when known).
 /// Returns the fit and the report.
 pub fn save_inertia(
     dir: &Path,
     trace: &[Sample],
     truth: Option<Rigid>,
-    modes: Option<(&Geometry, &ModesFit)>,
+    g: &Geometry,
+    modes: Option<&ModesFit>,
 ) -> Result<(InertiaFit, String), String> {
+    super::record::check_torques(trace, g.torque_limit).map_err(|e| e.to_string())?;
     let (fit, how) = match modes {
-        Some((g, m)) => (
+        Some(m) => (
             inertia::fit_inertia_flexible(trace, g.a1, g.s_floor(), &|s| model::coupling(g, m, s)),
             format!(
                 "the link's {} mode(s) the modes fit found taken out of the torques through the geometry's shapes",
