@@ -107,7 +107,7 @@ enum Command {
         /// `model`: the inertia experiment's record (`flexarm identify inertia`).
         #[arg(long)]
         inertia_record: Option<PathBuf>,
-        /// Fit this recording instead of running the experiment (`modes`, `inertia`, `decay`): a trace
+        /// Fit this recording instead of running the experiment (`friction`, `modes`, `inertia`, `decay`): a trace
         /// CSV (a run's, or a board's `flexarm record`), evenly sampled.
         #[arg(long)]
         record: Option<PathBuf>,
@@ -598,12 +598,9 @@ fn main_result(cli: Cli) -> Result<()> {
                         .collect();
                     workflow::decay_step(&b, r.as_deref(), &models)?.1
                 }
-                ("friction", Some(_)) => {
-                    return Err("--record: the friction experiment's recordings are its moves; run it (or `flexarm identify friction` on a board)".into());
-                }
-                ("friction", None) => workflow::friction_step(&b, &speeds, cruise)?,
+                ("friction", r) => workflow::friction_step(&b, r.as_deref(), &speeds, cruise)?,
                 (_, Some(_)) => {
-                    return Err("--record: `all` runs every experiment itself; fit a recording with `modes`, `inertia` or `decay`".into());
+                    return Err("--record: `all` runs every experiment itself; fit a recording with `friction`, `modes`, `inertia` or `decay`".into());
                 }
                 _ => workflow::all(&b, nominal, seconds)?,
             };

@@ -597,14 +597,16 @@ fn the_truth_plant_from_the_command_line() {
     assert!(stdout.contains("| trapezoid |"), "{stdout}");
 }
 
-/// `identify friction` from the command line: its four files, the report's table; settings
-/// that cannot identify anything are one line, and nothing is written.
+/// `identify friction` from the command line: its five files (the record among them), the
+/// report's table; the record read back (`--record`) gives the truth plant's friction within
+/// the 10 %, as the experiment's own windows do; settings that cannot identify anything are one line, and nothing is written.
 #[test]
 fn identify_friction_writes_its_files_and_refuses_bad_settings() {
     let out = fresh_dir("identify");
     let o = out.to_str().unwrap();
     let (ok, stdout, stderr) = sim(&[
-        "identify", "friction", "--speeds", "0.2,0.5", "--cruise", "0.5", "--out", o,
+        "identify", "friction", "--plant", "truth", "--speeds", "0.2,0.5", "--cruise", "2",
+        "--out", o,
     ]);
     assert!(ok, "{stderr}");
     assert!(stdout.contains("| joint | F_c [N·m] |"), "{stdout}");
@@ -615,12 +617,46 @@ fn identify_friction_writes_its_files_and_refuses_bad_settings() {
             "friction.csv",
             "friction.md",
             "friction.svg",
-            "friction.toml"
+            "friction.toml",
+            "friction_record.csv"
         ]
     );
     // Four cruises per joint, both ways at each speed.
     let csv = std::fs::read_to_string(out.join("friction.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 8, "{csv}");
+    let again = fresh_dir("identify-again");
+    let record = out.join("friction_record.csv");
+    let (ok, stdout2, stderr) = sim(&[
+        "identify",
+        "friction",
+        "--record",
+        record.to_str().unwrap(),
+        "--no-plots",
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stdout2.contains("8 cruises found in it"), "{stdout2}");
+    // F_c and F_v of each joint against the truth plant's drives (0.05 N·m, 0.02 N·m·s/rad).
+    let fits = |s: &str| -> Vec<f64> {
+        s.lines()
+            .filter(|l| l.starts_with("| 1 |") || l.starts_with("| 2 |"))
+            .flat_map(|l| {
+                l.split('|')
+                    .skip(2)
+                    .take(2)
+                    .map(|c| c.trim().parse::<f64>().unwrap())
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    };
+    let (a, b) = (fits(&stdout), fits(&stdout2));
+    assert_eq!((a.len(), b.len()), (4, 4), "{stdout2}");
+    for fit in [&a, &b] {
+        for (x, t) in fit.iter().zip([0.05, 0.02, 0.05, 0.02]) {
+            assert!((x / t - 1.0).abs() < 0.1, "{a:?}, from the record {b:?}");
+        }
+    }
     for (args, needle) in [
         (
             ["--speeds", "0.2,-1", "--cruise", "2"],

@@ -205,30 +205,57 @@ pub const CHECK_PIEZO: PiezoGains<f32> = PiezoGains {
 pub const CHECK_K_C: f64 = 3.162;
 
 /// The friction step: the experiment on the simulator at `speeds` [rad/s] with `cruise`
-/// seconds averaged, its fit and `friction.*`. Returns the report.
-pub fn friction_step(b: &Bench, speeds: &[f64], cruise: f64) -> Result<String, String> {
-    let held = Vector2::from(super::HELD);
-    let cruises =
-        super::friction_experiment(b.cfg, held, speeds, cruise).map_err(|e| e.to_string())?;
-    let fits = super::fit_joints(&cruises).map_err(|e| e.to_string())?;
+/// seconds averaged (its record saved as `friction_record.csv`), or the cruises found in
+/// `record` ([`super::find_cruises`]); the fit and `friction.*`. Returns the report.
+pub fn friction_step(
+    b: &Bench,
+    record: Option<&Path>,
+    speeds: &[f64],
+    cruise: f64,
+) -> Result<String, String> {
+    let (cruises, source) = match record {
+        Some(p) => {
+            let trace = super::record::read_record(p)?;
+            let cruises = super::find_cruises(&trace).map_err(|e| naming(record)(e.to_string()))?;
+            let n = cruises.len();
+            (
+                cruises,
+                format!(
+                    "the record {}: {n} cruises found in it (constant-speed stretches of one joint, the other still; `identify::find_cruises`)",
+                    p.display()
+                ),
+            )
+        }
+        None => {
+            let held = Vector2::from(super::HELD);
+            let (cruises, trace) = super::friction_experiment(b.cfg, held, speeds, cruise)
+                .map_err(|e| e.to_string())?;
+            save_record(b.dir, "friction", &trace)?;
+            let truth = b.cfg.truth.filter(|_| b.known);
+            let plant = match truth {
+                Some(t) => format!(
+                    "the truth plant (link 2 with {} modes, geared drives with friction, a realistic board)",
+                    t.modes
+                ),
+                None => "the controller's own model (no friction: the fit should find none)".into(),
+            };
+            let source = format!(
+                "{plant}: each joint at {} rad/s, both ways, {cruise} s of cruise averaged after {} s of settling",
+                speeds
+                    .iter()
+                    .map(|v| v.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                super::SETTLE
+            );
+            (cruises, source)
+        }
+    };
+    let fits = super::fit_joints(&cruises).map_err(|e| naming(record)(e.to_string()))?;
     let truth = b.cfg.truth.filter(|_| b.known);
     let known = truth.map(|t| [0, 1].map(|j| (t.motors[j].coulomb, t.motors[j].viscous)));
-    let plant = match truth {
-        Some(t) => format!(
-            "the truth plant (link 2 with {} modes, geared drives with friction, a realistic board)",
-            t.modes
-        ),
-        None => "the controller's own model (no friction: the fit should find none)".into(),
-    };
-    let heading = format!(
-        "Identified on {plant}: each joint at {} rad/s, both ways, {cruise} s of cruise averaged after {} s of settling (`cargo sim identify friction`, docs/identification.md).",
-        speeds
-            .iter()
-            .map(|v| v.to_string())
-            .collect::<Vec<_>>()
-            .join(", "),
-        super::SETTLE
-    );
+    let heading =
+        format!("Identified on {source} (`cargo sim identify friction`, docs/identification.md).");
     super::save_friction(b.dir, &heading, &cruises, &fits, known, b.plots)
 }
 
@@ -267,7 +294,7 @@ pub fn all(
     nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
     seconds: f64,
 ) -> Result<String, String> {
-    let f_text = friction_step(b, &super::SPEEDS, super::CRUISE)?;
+    let f_text = friction_step(b, None, &super::SPEEDS, super::CRUISE)?;
     let (modes, m_text) = modes_step(b, None, seconds, &FitSettings::default())?;
     let (inertia, i_text) = inertia_step(b, None, Some(&modes))?;
     let (arm, patch, _) = write_model(b, nominal.0, &modes, &inertia)?;
