@@ -565,14 +565,15 @@ fn main_result(cli: Cli) -> Result<()> {
                 ("family", None) => {
                     use flexarm_sim::identify::family::{self, Kind};
                     use rayon::prelude::*;
-                    let kinds = [Kind::ChirpNoise, Kind::Random, Kind::ChirpLog];
+                    let kinds = Kind::ALL;
                     let results: Vec<_> = family::family()
                         .par_iter()
                         .map(|arm| family::identify_arm(arm, &kinds, dir.staging(), false))
                         .collect::<Result<_>>()?;
                     let text = format!(
-                        "# The family\n\nEach arm of `flexarm_sim::identify::family` recorded by `flexarm_sim::lab` (a PD hold, the kinds below, sized to {} of the film's range), written and read back as a trace, fitted by `cargo sim identify`'s code (`cargo sim identify family`).\n\n{}",
+                        "# The family\n\nEach arm of `flexarm_sim::identify::family` recorded by `flexarm_sim::lab` (a PD hold, the kinds below, sized to {} of the film's range), written and read back as a trace, fitted by `cargo sim identify`'s code (`cargo sim identify family`).\n\n## Per kind of record\n\n{}\n## Per arm\n\n{}",
                         family::FILM_SHARE,
+                        family::summary(&results),
                         family::report(&results)
                     );
                     std::fs::write(dir.staging().join("family.md"), &text)

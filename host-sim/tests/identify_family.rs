@@ -274,7 +274,7 @@ fn bad_records_are_refused_with_the_gate() {
 #[test]
 fn decays_of_every_tap() {
     use flexarm_sim::identify::decay::{DecaySettings, Tapper, fit_decay};
-    use flexarm_sim::identify::family::lab_record;
+    use flexarm_sim::identify::family::{HELD_BELOW, lab_record};
     use flexarm_sim::identify::record::ModesRecord;
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
     let set = DecaySettings::default();
@@ -321,7 +321,7 @@ fn decays_of_every_tap() {
                     e.1 * 100.0
                 );
                 // Below the link's second mode the held first mode and the hold's ring.
-                if hz >= 0.75 * truth[1].hz {
+                if hz >= HELD_BELOW * truth[1].hz {
                     assert!(j >= 2 && e.0.abs() < 0.005, "{name}: mode {j}: {e:?}");
                     if tapper == Tapper::Hammer {
                         assert!(e.1.abs() < 0.15, "{name}: mode {j}: {e:?}");

@@ -272,7 +272,8 @@ fn median(x: &[f64]) -> f64 {
 
 /// The pulses of `x` (sampled every `dt` [s]) from its rest (its median): runs beyond half its
 /// largest excursion, each at most [`MAX_TAP`], with the channel within a tenth of that
-/// excursion for at least four fifths of the record. Empty when `x` is not a train of pulses.
+/// excursion for at least four fifths of the record; a run within [`SAME_TAP`] of the one
+/// before is part of its tap. Empty when `x` is not a train of pulses.
 pub fn pulses(x: &[f64], dt: f64) -> Vec<Pulse> {
     let rest = median(x);
     let peak = x.iter().map(|v| (v - rest).abs()).fold(0.0, f64::max);
@@ -315,8 +316,23 @@ pub fn pulses(x: &[f64], dt: f64) -> Vec<Pulse> {
     if longest > MAX_TAP {
         return Vec::new();
     }
-    out
+    // A pulse that starts within `SAME_TAP` of the one before's end is that tap's ringing.
+    let mut taps: Vec<Pulse> = Vec::new();
+    let mut last_end = None;
+    for p in out {
+        match last_end {
+            Some(e) if (p.start - e) as f64 * dt < SAME_TAP => {}
+            _ => taps.push(p),
+        }
+        last_end = Some(p.end);
+    }
+    taps
 }
+
+/// A pulse that starts less than this [s] after the one before ends belongs to the same tap:
+/// the hold's reaction to a hammer's strike swings in the torque for about a second, its
+/// swings under half a second apart.
+const SAME_TAP: f64 = 0.5;
 
 /// The samples where `x` is away from its rest (its first sample) by more than `floor`, as the
 /// first and one past the last.
