@@ -236,7 +236,7 @@ pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, Ide
     let lowest = set.band.0;
     if (len as f64) * dt < 3.0 / lowest {
         return bad(format!(
-            "decays of {:.2} s: too short for modes down to {lowest} Hz, which need {:.1} s between taps",
+            "gate `record length`: decays of {:.2} s: too short for modes down to {lowest} Hz, which need {:.1} s between taps",
             len as f64 * dt,
             3.0 / lowest
         ));
@@ -251,7 +251,9 @@ pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, Ide
         })
         .collect();
     if decay.iter().all(|v| *v == decay[0]) {
-        return bad("no decay: the film's voltage does not move after the taps".into());
+        return bad(
+            "gate `excitation`: no decay: the film's voltage does not move after the taps".into(),
+        );
     }
     let (poles, amplitudes) = pencil(&decay, set.order)?;
     let fitted: Vec<f64> = (0..len)
@@ -286,7 +288,7 @@ pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, Ide
     if modes.len() < set.modes {
         let k = modes.len() + 1;
         return bad(format!(
-            "mode {k} not seen in the decay: the pencil found {} mode(s) in {}–{} Hz; the taps did not reach mode {k}, or it lies outside the band",
+            "gate `modes`: mode {k} not seen in the decay: the pencil found {} mode(s) in {}–{} Hz; the taps did not reach mode {k}, or it lies outside the band",
             modes.len(),
             set.band.0,
             set.band.1
