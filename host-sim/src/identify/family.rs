@@ -383,12 +383,16 @@ pub fn identify_arm(
     for &kind in kinds {
         let trace = lab_record(dir, (arm.name, kind.name()), &kind.plan(&bench), keep)?;
         let rec = ModesRecord::from_trace(&trace, geometry.film_range, geometry.amplifier_window)
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| e.to_string());
         if kind.taps() {
-            let fit = fit_decay(&rec, &DecaySettings::default()).map_err(|e| e.to_string());
+            let fit = rec
+                .as_ref()
+                .map_err(Clone::clone)
+                .and_then(|r| fit_decay(r, &DecaySettings::default()).map_err(|e| e.to_string()));
             decays.push((kind, fit));
         }
-        let fit = modal::fit_modes(&rec, &FitSettings::default()).map_err(|e| e.to_string());
+        let fit = rec
+            .and_then(|r| modal::fit_modes(&r, &FitSettings::default()).map_err(|e| e.to_string()));
         modes.push((kind, fit));
     }
     let swing_trace = lab_record(dir, (arm.name, "swing"), &swing(&bench, truth[0].hz), keep)?;
@@ -449,6 +453,23 @@ pub fn nearest(truth: &[TrueMode], hz: f64) -> Option<(usize, TrueMode)> {
         .map(|(j, m)| (j + 1, m))
 }
 
+/// Every arm's fit (`pick` of its results) of the records of `kind`.
+fn of_kind<'a, T>(
+    results: &'a [ArmResult],
+    kind: Kind,
+    pick: impl Fn(&'a ArmResult) -> &'a [(Kind, T)],
+) -> Vec<(&'a ArmResult, &'a T)> {
+    results
+        .iter()
+        .flat_map(|r| {
+            pick(r)
+                .iter()
+                .filter(|(k, _)| *k == kind)
+                .map(move |(_, f)| (r, f))
+        })
+        .collect()
+}
+
 /// Per kind of record, over the family: how many arms' records gave the clamped modes (or
 /// the held arm's, or were refused), and the worst error of the controller's modes (the
 /// kept ones, against the truth's of the same number) in frequency, damping and the
@@ -473,15 +494,7 @@ pub fn summary(results: &[ArmResult]) -> String {
         "| record | clamped modes | held arm's | refused | worst error f | worst error ζ | worst error g |\n|---|---|---|---|---|---|---|\n",
     );
     for kind in Kind::ALL {
-        let fits: Vec<(&ArmResult, &Result<ModesFit, String>)> = results
-            .iter()
-            .flat_map(|r| {
-                r.modes
-                    .iter()
-                    .filter(|(k, _)| *k == kind)
-                    .map(move |(_, f)| (r, f))
-            })
-            .collect();
+        let fits = of_kind(results, kind, |r| &r.modes);
         if fits.is_empty() {
             continue;
         }
@@ -519,15 +532,7 @@ pub fn summary(results: &[ArmResult]) -> String {
     }
     s += "\n| tap record | decays fitted | refused | link modes found | worst error f | worst error ζ |\n|---|---|---|---|---|---|\n";
     for kind in Kind::ALL.into_iter().filter(|k| k.taps()) {
-        let fits: Vec<(&ArmResult, &Result<DecayFit, String>)> = results
-            .iter()
-            .flat_map(|r| {
-                r.decays
-                    .iter()
-                    .filter(|(k, _)| *k == kind)
-                    .map(move |(_, f)| (r, f))
-            })
-            .collect();
+        let fits = of_kind(results, kind, |r| &r.decays);
         if fits.is_empty() {
             continue;
         }

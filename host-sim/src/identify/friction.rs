@@ -285,9 +285,10 @@ pub fn friction_experiment(
 
 /// A record's joint speeds are the encoders' central differences over this half-width [s].
 const SPEED_SPAN: f64 = 0.25;
-/// Share of a move's plateau speed within which it cruises: the difference's span blurs a
-/// ramp's end by up to `√(4 SPEED_SPAN (1 − PLATEAU) v / ACCEL)` (0.24 s at 3 rad/s, the
-/// fastest the experiment runs), within the span and a half the cruise keeps clear of.
+/// Share of a move's plateau speed within which it cruises. The difference sees the
+/// decelerating ramp a span early and crosses this share `√(4 SPEED_SPAN (1 − PLATEAU) v /
+/// ACCEL)` after that (0.24 s at 3 rad/s, the fastest the experiment runs): less than the
+/// span and a half the cruise's window ends before that crossing, so it ends on the cruise.
 const PLATEAU: f64 = 0.98;
 /// The slowest cruise a record's moves are searched for [rad/s].
 const SLOWEST: f64 = 0.02;
@@ -299,8 +300,8 @@ const OTHER_STILL: f64 = 0.05;
 /// over ±[`SPEED_SPAN`]; a move is a run of one sign above [`SLOWEST`] rad/s, its plateau the
 /// median speed of its half above half its peak; its cruise from where the speed first
 /// reaches [`PLATEAU`] of the plateau, plus [`SETTLE`], to where it last does, less half the
-/// difference's span (the difference sees a ramp a span early); kept when at least half a second long with the other joint still
-/// (under [`OTHER_STILL`] of the cruise's speed: the arm's coupling torques vanish only then).
+/// difference's span; kept when at least half a second long with the other joint still (under
+/// [`OTHER_STILL`] of the cruise's speed: the arm's coupling torques vanish only then).
 /// Refused (gate `excitation`) when a joint has none.
 pub fn find_cruises(trace: &[Sample]) -> Result<Vec<Cruise>, IdentifyError> {
     let dt = super::even_period(trace)?;
