@@ -8,6 +8,9 @@ pub mod clocks;
 #[cfg(feature = "hw")]
 #[allow(unsafe_code)]
 pub mod hw;
+#[cfg(feature = "hw")]
+#[allow(unsafe_code)]
+mod pre_init;
 #[cfg(feature = "qemu")]
 pub mod sim;
 

@@ -50,6 +50,8 @@ const FILM_RANGE: f32 = 10.0;
 /// TIM12 input clock (APB1 timers) [Hz] and PWM rate [Hz].
 const TIM12_CLOCK_HZ: u32 = 84_000_000;
 const PWM_HZ: u32 = 20_000;
+/// The PWM period in TIM12 counts (ARR + 1), set by `super::pre_init`.
+pub const PWM_PERIOD: u32 = TIM12_CLOCK_HZ / PWM_HZ;
 
 /// Read-modify-write of the bits under `mask`.
 macro_rules! set_bits {
@@ -148,41 +150,21 @@ impl HwBoard {
         dac: DAC,
         rcc: &RCC,
     ) -> Self {
-        // Clocks: GPIOA/B/C (AHB1ENR bits 0–2); TIM12, DAC (APB1ENR bits 6, 29);
-        // TIM1, TIM8, ADC1 (APB2ENR bits 0, 1, 8).
+        // Clocks: GPIOA/B/C (AHB1ENR bits 0–2); TIM1, TIM8, ADC1 (APB2ENR bits 0, 1, 8). TIM12
+        // and the DAC are already on and at their safe outputs, PB12 low, PA4 analog, PB14/PB15
+        // on TIM12: `super::pre_init`, before RAM was initialized.
         set_bits!(rcc.ahb1enr(), 0x7, 0x7);
-        set_bits!(rcc.apb1enr(), (1 << 6) | (1 << 29), (1 << 6) | (1 << 29));
         set_bits!(
             rcc.apb2enr(),
             1 | (1 << 1) | (1 << 8),
             1 | (1 << 1) | (1 << 8)
         );
 
-        // Motor PWM on TIM12, configured completely (50 % = zero torque, an update event loads
-        // the preloaded values) before its pins are handed to it below.
-        let pwm_period = TIM12_CLOCK_HZ / PWM_HZ;
-        set_bits!(tim12.arr(), 0xFFFF, pwm_period - 1);
-        set_bits!(
-            tim12.ccmr1_output(),
-            0x7878,
-            (0b110 << 4) | (1 << 3) | (0b110 << 12) | (1 << 11)
-        );
-        set_bits!(tim12.ccr1(), 0xFFFF, pwm_period / 2);
-        set_bits!(tim12.ccr2(), 0xFFFF, pwm_period / 2);
-        tim12.egr().write(|w| w.ug().set_bit()); // load ARR, CCR1, CCR2 from their preloads
-        set_bits!(tim12.ccer(), 0x11, 0x11);
-        set_bits!(tim12.cr1(), 0x81, 0x81);
-
-        // DAC channel 1: mid-scale (0 V at the piezo) written before the channel is enabled,
-        // output buffer on (its swing is what limits the voltage: docs/firmware.md).
-        set_bits!(dac.dhr12r1(), 0xFFF, u32::from(DAC_MID));
-        set_bits!(dac.cr(), 0x3, 0x1);
-
-        // GPIOA: PA0 analog (ADC), PA4 analog (DAC), PA8/PA9 AF1 (TIM1).
+        // GPIOA: PA0 analog (ADC), PA8/PA9 AF1 (TIM1).
         set_bits!(
             gpioa.moder(),
-            3 | (3 << 8) | (3 << 16) | (3 << 18),
-            3 | (3 << 8) | (2 << 16) | (2 << 18)
+            3 | (3 << 16) | (3 << 18),
+            3 | (2 << 16) | (2 << 18)
         );
         set_bits!(gpioa.afrh(), 0xFF, 0x11);
         // Encoder inputs pulled up (PUPDR = 0b01): open-collector encoders need it, line
@@ -192,12 +174,9 @@ impl HwBoard {
         set_bits!(gpioc.moder(), (3 << 12) | (3 << 14), (2 << 12) | (2 << 14));
         set_bits!(gpioc.afrl(), 0xFF << 24, 0x33 << 24);
         set_bits!(gpioc.pupdr(), (3 << 12) | (3 << 14), (1 << 12) | (1 << 14));
-        // GPIOB: PB12 output (enable, already low: `emergency::force_safe_outputs` in `init`),
-        // PB13 input with pull-up, PB14/PB15 AF9 (TIM12, already running at 50 %).
-        // SAFETY: BSRR bit 28 resets PB12.
-        gpiob.bsrr().write(|w| unsafe { w.bits(1 << 28) });
-        set_bits!(gpiob.afrh(), 0xFF << 24, 0x99 << 24);
-        set_bits!(gpiob.moder(), 0xFF << 24, (1 << 24) | (2 << 28) | (2 << 30));
+        // GPIOB: PB13 input (MODER 0b00, its reset value) with pull-up; PB12 (the enable, an
+        // output driven low) and PB14/PB15 (TIM12) are `super::pre_init`'s.
+        set_bits!(gpiob.moder(), 3 << 26, 0);
         set_bits!(gpiob.pupdr(), 3 << 26, 1 << 26);
         // PB6/PB7 AF7: USART1 TX/RX, the command link (`crate::link`); RX pulled up so an
         // unplugged cable reads idle.
@@ -243,6 +222,7 @@ impl HwBoard {
         set_bits!(adc.cr2(), 1, 1);
 
         let limits = Limits::<f32>::default();
+        let pwm_period = PWM_PERIOD;
         let raw = [
             tim1.cnt().read().bits() as u16,
             tim8.cnt().read().bits() as u16,
