@@ -145,13 +145,19 @@ mod app {
         recorder: FaultRecorder = FaultRecorder::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
+        let dp = cx.device;
+        // The mutation scripts/fw-elf-check must reject: the clock start-up first.
+        #[cfg(feature = "mutant-clocks-first")]
+        let startup = crate::board::clocks::start(&dp.RCC, &dp.FLASH);
         // Before anything else (the crystal wait included): amplifiers disabled, commands safe.
         crate::emergency::force_safe_outputs();
-        let dp = cx.device;
         // The crystal, the PLL and the reset cause. The QEMU board models no RCC and runs at
         // the timers' fixed rate; its `inject-no-crystal` build runs the start-up there to
         // take the path of a crystal that never starts.
-        #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
+        #[cfg(all(
+            any(feature = "hw", feature = "inject-no-crystal"),
+            not(feature = "mutant-clocks-first")
+        ))]
         let startup = crate::board::clocks::start(&dp.RCC, &dp.FLASH);
 
         // Timers: TIM2 piezo, TIM3 motor, TIM4 supervisor, TIM5 free-running clock.
