@@ -148,17 +148,22 @@ mod app {
         let dp = cx.device;
         // The mutation scripts/fw-elf-check must reject: the clock start-up first.
         #[cfg(feature = "mutant-clocks-first")]
-        let startup = crate::board::clocks::start(&dp.RCC, &dp.FLASH);
+        let startup = crate::board::clocks::start(&mut crate::board::clocks::Chip {
+            rcc: &dp.RCC,
+            flash: &dp.FLASH,
+        });
         // Before anything else (the crystal wait included): amplifiers disabled, commands safe.
         crate::emergency::force_safe_outputs();
         // The crystal, the PLL and the reset cause. The QEMU board models no RCC and runs at
-        // the timers' fixed rate; its `inject-no-crystal` build runs the start-up there to
-        // take the path of a crystal that never starts.
-        #[cfg(all(
-            any(feature = "hw", feature = "inject-no-crystal"),
-            not(feature = "mutant-clocks-first")
-        ))]
-        let startup = crate::board::clocks::start(&dp.RCC, &dp.FLASH);
+        // the timers' fixed rate; its `inject-no-crystal` build runs the start-up on a model of
+        // an RCC whose crystal never starts.
+        #[cfg(all(feature = "hw", not(feature = "mutant-clocks-first")))]
+        let startup = crate::board::clocks::start(&mut crate::board::clocks::Chip {
+            rcc: &dp.RCC,
+            flash: &dp.FLASH,
+        });
+        #[cfg(feature = "inject-no-crystal")]
+        let startup = crate::board::sim::start_on_dead_crystal();
 
         // Timers: TIM2 piezo, TIM3 motor, TIM4 supervisor, TIM5 free-running clock.
         dp.RCC.apb1enr().modify(|_, w| {
@@ -190,8 +195,12 @@ mod app {
         // The first cause is kept: a clock failure explains a watchdog reset, not the reverse.
         #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
         {
-            if startup.clocks.is_err() {
+            if startup.source != crate::board::clocks::Source::Crystal {
                 ctrl.trip(Fault::Clock);
+                defmt::error!(
+                    "clock: {=str}; the amplifiers stay off",
+                    startup.source.as_str()
+                );
             }
             if !startup.brown_out_reset_on {
                 ctrl.trip(Fault::BrownOutDisabled);
@@ -222,8 +231,16 @@ mod app {
             defmt::error!("starting in the safe state: {=str}", f.as_str());
         }
 
+        // The watchdog's timeout fits the supervisor's period on the clock that runs.
         #[cfg(feature = "hw")]
-        let iwdg = crate::board::hw::start_watchdog(dp.IWDG);
+        let iwdg = {
+            let supervisor_us = u64::from(TIMER_CLOCK_HZ / SUPERVISOR_HZ) * 1_000_000
+                / u64::from(startup.source.timer_clock_hz());
+            if !crate::board::hw::start_watchdog(&dp.IWDG, supervisor_us) {
+                defmt::warn!("watchdog: PVU/RVU did not clear; its first timeout may be 4 s");
+            }
+            dp.IWDG
+        };
 
         // Piezo first, then motor, then supervisor: at common instants the update events come in
         // that order, so the motor loop sees the plant the piezo loop just advanced.

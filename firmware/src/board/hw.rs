@@ -61,16 +61,41 @@ macro_rules! set_bits {
     };
 }
 
-/// Starts the independent watchdog: LSI 32 kHz / 32, reload 500, a timeout of 0.5 s (0.34 s
-/// to 0.94 s across the LSI's 17–47 kHz). The counter starts at 0xFFF (4 s), so the reload is
-/// written once right after the start: the first timeout is the configured one too.
-pub fn start_watchdog(iwdg: IWDG) -> IWDG {
-    iwdg.kr().write(|w| w.key().unlock()); // unlock PR and RLR
-    iwdg.pr().write(|w| w.pr().set(0b011)); // /32
-    iwdg.rlr().write(|w| w.rl().set(500));
-    iwdg.kr().write(|w| w.key().start()); // start
-    iwdg.kr().write(|w| w.key().feed()); // load RLR now, not 0xFFF
-    iwdg
+/// The watchdog's reload value: a timeout of `IWDG_RELOAD · divider / f_LSI`.
+const IWDG_RELOAD: u16 = 500;
+/// The LSI's fastest (datasheet: 17 to 47 kHz, 32 kHz typical) [Hz]: the shortest timeout.
+const LSI_MAX_HZ: u64 = 47_000;
+/// Polls of the watchdog's status bits: the LSI's start (at most 40 µs) and 5 of its periods
+/// (294 µs at 17 kHz), with a poll of 5 to 10 cycles, are 56 000 cycles at 168 MHz at most.
+const IWDG_POLLS: u32 = 40_000;
+
+/// The watchdog's prescaler code (divider `4 · 2^PR`) whose timeout is, even on the fastest
+/// LSI, at least twice the supervisor's period `supervisor_us` [µs] (the supervisor feeds it):
+/// 3 (/32, 0.5 s; 0.34 to 0.94 s across the LSI's range) for the 0.1 s period at 168 MHz, 5
+/// (/128, 2 s; 1.36 to 3.76 s) for the 0.525 s the supervisor's timer gives at 16 MHz.
+pub const fn watchdog_prescaler(supervisor_us: u64) -> u8 {
+    let mut pr = 0;
+    while pr < 6 && (4 << pr) * IWDG_RELOAD as u64 * 1_000_000 / LSI_MAX_HZ < 2 * supervisor_us {
+        pr += 1;
+    }
+    pr
+}
+
+/// Starts the independent watchdog with a timeout that fits the supervisor's period
+/// ([`watchdog_prescaler`]). RM0090 §19.3: the start (KR = 0xCCCC) turns the LSI on and counts
+/// from 0xFFF; PR and RLR are written after the unlock (0x5555) and reach the LSI's domain
+/// within 5 of its periods, shown by the status bits PVU and RVU; the first reload (0xAAAA)
+/// waits for them to clear, or it would load the old value (0xFFF: 4 s at /32). `false` if
+/// they did not clear within the bounded wait (the first timeout may then be longer).
+pub fn start_watchdog(iwdg: &IWDG, supervisor_us: u64) -> bool {
+    iwdg.kr().write(|w| w.key().start());
+    iwdg.kr().write(|w| w.key().unlock());
+    iwdg.pr()
+        .write(|w| w.pr().set(watchdog_prescaler(supervisor_us)));
+    iwdg.rlr().write(|w| w.rl().set(IWDG_RELOAD));
+    let updated = (0..IWDG_POLLS).any(|_| iwdg.sr().read().bits() & 0b11 == 0);
+    iwdg.kr().write(|w| w.key().feed());
+    updated
 }
 
 /// Reloads the watchdog counter.
