@@ -244,10 +244,17 @@ mod app {
 
         // Piezo first, then motor, then supervisor: at common instants the update events come in
         // that order, so the motor loop sees the plant the piezo loop just advanced.
-        periodic!(dp.TIM2, TIMER_CLOCK_HZ / PIEZO_HZ, 1u32);
-        // TIM2's update event is also the film ADC's trigger (CR2 MMS = 0b010: TRGO = update).
+        // TIM2's update event is also the film ADC's trigger (CR2 MMS = 0b010: TRGO = update),
+        // set before the timer generates its first update event (RM0090 §18.3.13: the master
+        // mode first).
         #[cfg(feature = "hw")]
         dp.TIM2.cr2().write(|w| w.mms().update());
+        periodic!(dp.TIM2, TIMER_CLOCK_HZ / PIEZO_HZ, 1u32);
+        // That first update event (EGR UG) started a conversion too: read it now, so that the
+        // first piezo period does not take it for its own (and every later one the previous
+        // period's).
+        #[cfg(feature = "hw")]
+        let _ = board.film_voltage();
         // The QEMU board's motor loop runs every tenth piezo period, started by the piezo loop
         // (`piezo_loop`): QEMU's timers drift against each other (its TIM2 comes 3 % late), and
         // on one clock the plant, both loops and the host's rig keep the same time.
