@@ -167,6 +167,7 @@ fn ready(regs: &impl Regs, reg: Reg, mask: u32, value: u32) -> bool {
 /// clock to it (5 flash wait states, AHB 168 MHz, APB1 42 MHz with its timers at 84 MHz, APB2
 /// 84 MHz). `false` if it does not lock or the switch does not take; the chip is then still on
 /// the oscillator it ran from.
+#[inline(never)]
 fn run_pll(regs: &mut impl Regs, from_hse: bool, cfg: Pll) -> bool {
     // PLLCFGR is written only while the PLL is off (RM0090 6.3.2).
     regs.modify(Reg::RccCr, PLLON, 0);
