@@ -245,7 +245,7 @@ mod app {
         // Piezo first, then motor, then supervisor: at common instants the update events come in
         // that order, so the motor loop sees the plant the piezo loop just advanced.
         // TIM2's update event is also the film ADC's trigger (CR2 MMS = 0b010: TRGO = update),
-        // set before the timer generates its first update event (RM0090 §18.3.13: the master
+        // set before the timer generates its first update event (RM0090, TIMx_CR2: the master
         // mode first).
         #[cfg(feature = "hw")]
         dp.TIM2.cr2().write(|w| w.mms().update());

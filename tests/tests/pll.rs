@@ -8,7 +8,7 @@ mod pll;
 
 use pll::{CLK48_HZ, HSI_HZ, Pll, SYSCLK_HZ, pll_for, pll_for_hse};
 
-/// RM0090 6.3.2's limits, and the two output frequencies exact.
+/// RM0090's limits (RCC_PLLCFGR), and the two output frequencies exact.
 fn check(input_hz: u32, p: Pll) {
     let f = u64::from(input_hz);
     let (m, n, pp, q) = (
@@ -95,7 +95,7 @@ fn what_no_setting_serves_is_refused_with_its_constraint() {
     for hz in [12_500_000, 4_100_000, 25_000_001] {
         let e = pll_for_hse(hz).unwrap_err();
         assert!(
-            e.contains("RM0090 6.3.2") && e.contains("168 MHz and 48 MHz"),
+            e.contains("RM0090, RCC_PLLCFGR") && e.contains("168 MHz and 48 MHz"),
             "{hz}: {e}"
         );
     }

@@ -1,4 +1,4 @@
-//! Clock start-up of the STM32F405 (RM0090 §6): the crystal, the PLL, the bus dividers, the
+//! Clock start-up of the STM32F405 (RM0090, RCC): the crystal, the PLL, the bus dividers, the
 //! clock security system, and what the chip reports about its last reset and its brown-out
 //! setting. Every wait is bounded, so a crystal that never starts cannot hang the start-up with
 //! the outputs undefined.
@@ -169,7 +169,7 @@ fn ready(regs: &impl Regs, reg: Reg, mask: u32, value: u32) -> bool {
 /// the oscillator it ran from.
 #[inline(never)]
 fn run_pll(regs: &mut impl Regs, from_hse: bool, cfg: Pll) -> bool {
-    // PLLCFGR is written only while the PLL is off (RM0090 6.3.2).
+    // PLLCFGR is written only while the PLL is off (RM0090, RCC_PLLCFGR).
     regs.modify(Reg::RccCr, PLLON, 0);
     if !ready(regs, Reg::RccCr, PLLRDY, 0) {
         return false;
@@ -202,7 +202,7 @@ pub fn start(regs: &mut impl Regs) -> Startup {
     regs.modify(Reg::RccCsr, 0, RMVF);
     // FLASH_OPTCR BOR_LEV (bits 2–3): 0b11 is "off".
     let brown_out_reset_on = (regs.read(Reg::FlashOptcr) >> 2) & 0b11 != 0b11;
-    // HSEBYP may change only while the HSE is off (RM0090 6.3.1): turn it off, select the
+    // HSEBYP may change only while the HSE is off (RM0090, RCC_CR): turn it off, select the
     // bypass in its own write, then turn the HSE on.
     regs.modify(Reg::RccCr, HSEON, 0);
     if HSE_BYPASS {

@@ -82,7 +82,7 @@ pub const fn watchdog_prescaler(supervisor_us: u64) -> u8 {
 }
 
 /// Starts the independent watchdog with a timeout that fits the supervisor's period
-/// ([`watchdog_prescaler`]). RM0090 §19.3: the start (KR = 0xCCCC) turns the LSI on and counts
+/// ([`watchdog_prescaler`]). RM0090, IWDG: the start (KR = 0xCCCC) turns the LSI on and counts
 /// from 0xFFF; PR and RLR are written after the unlock (0x5555) and reach the LSI's domain
 /// within 5 of its periods, shown by the status bits PVU and RVU; the first reload (0xAAAA)
 /// waits for them to clear, or it would load the old value (0xFFF: 4 s at /32). `false` if

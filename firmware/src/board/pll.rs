@@ -1,4 +1,4 @@
-//! The STM32F405's main PLL (RM0090 §6.3.2, RCC_PLLCFGR): the dividers that give the core
+//! The STM32F405's main PLL (RM0090, RCC_PLLCFGR): the dividers that give the core
 //! 168 MHz and the USB/SDIO clock 48 MHz from an oscillator, computed at compile time.
 //!
 //! `f_VCO_in = f_in / M`, `f_VCO = f_VCO_in · N`, `SYSCLK = f_VCO / P`, `f_48 = f_VCO / Q`, with
@@ -67,7 +67,7 @@ pub const fn pll_for(input_hz: u32) -> Result<Pll, &'static str> {
         m += 1;
     }
     Err(
-        "no PLL setting gives 168 MHz and 48 MHz from this clock (RM0090 6.3.2: VCO input 1-2 MHz with M 2..63, N 50..432, VCO 100-432 MHz, P 2/4/6/8, Q 2..15)",
+        "no PLL setting gives 168 MHz and 48 MHz from this clock (RM0090, RCC_PLLCFGR: VCO input 1-2 MHz with M 2..63, N 50..432, VCO 100-432 MHz, P 2/4/6/8, Q 2..15)",
     )
 }
 

@@ -14,7 +14,7 @@
 //!    amplifiers are disabled the moment the pin drives;
 //! 2. DAC and TIM12 clocks on; PA4 analog, then the DAC's channel 1 at mid-scale
 //!    ([`DAC_MID`](super::hw::DAC_MID), 0 V at the piezo) with its buffer, then enabled
-//!    (RM0090 §14.3.1: the pin analog before the channel);
+//!    (RM0090, DAC: the pin analog first, before the channel connects it to its output);
 //! 3. TIM12 in PWM mode 1 on both channels at 50 % duty (zero torque), preloads loaded by an
 //!    update event, counting; then PB14/PB15 handed to it (AF9). Until the crystal runs the
 //!    timer counts at 16 MHz (3.8 kHz PWM instead of 20 kHz), still at 50 %.
@@ -24,7 +24,7 @@
 
 use super::hw::{DAC_MID, PWM_PERIOD};
 
-/// Register addresses (RM0090 §2.3 memory map, each peripheral's register map).
+/// Register addresses (RM0090's memory map and each peripheral's register map).
 const RCC: u32 = 0x4002_3800;
 const RCC_AHB1ENR: u32 = RCC + 0x30;
 const RCC_APB1ENR: u32 = RCC + 0x40;
