@@ -269,7 +269,7 @@ impl<T: Real> Drive<T> {
             path_from: Vector2::zeros(),
             segment: 0,
             segments: 0,
-            motion: MotionLimits::default_for(motor_hz),
+            motion: MotionLimits::default_for(motor_hz, &ctrl.motor.model),
             monitor: MotionMonitor::new(),
             pending: None,
             rated: ctrl.motor.limits.tau_max,
@@ -326,6 +326,7 @@ impl<T: Real> Drive<T> {
                 theta_d: theta_hat - law.error,
                 speed: qd.xy(),
                 tau: report.command.tau,
+                accel: ctrl.observer.joint_acceleration(),
             };
             match self.monitor.check(&self.motion, &sample) {
                 Verdict::Clear => {}
@@ -924,6 +925,7 @@ impl<T: Real> Drive<T> {
             Fault::FollowingError
             | Fault::Runaway
             | Fault::FrozenEncoder
+            | Fault::EncoderMismatch
             | Fault::Overspeed
             | Fault::SoftLimit => measured.is_some(),
             Fault::Overload => {
