@@ -91,8 +91,28 @@ pub fn refusal(r: Refusal) -> &'static str {
 
 /// How long the handshake keeps asking.
 pub const HANDSHAKE: Duration = Duration::from_secs(3);
-/// How long a request waits for its reply.
-pub const REPLY: Duration = Duration::from_secs(2);
+/// How a request is retried: sent again with its id (the firmware answers a repeat of a
+/// request that acts with its first answer, without applying it again) after each wait of
+/// `first`, doubled each time, `attempts` sends in all. A request none of whose sends is
+/// answered is reported failed, never taken as done.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Timing {
+    /// The first wait for a reply.
+    pub first: Duration,
+    /// Sends in all.
+    pub attempts: u32,
+}
+
+impl Default for Timing {
+    /// 0.5, 1 and 2 s: a board answers in well under a millisecond plus the line's time; the
+    /// QEMU board within a few milliseconds (`docs/link.md`); 3.5 s in all.
+    fn default() -> Self {
+        Self {
+            first: Duration::from_millis(500),
+            attempts: 3,
+        }
+    }
+}
 
 /// How long one read of the line waits for bytes: the longest a caller's loop (the live view's
 /// keys) waits on a silent line.
@@ -111,6 +131,10 @@ pub struct Client {
     buffer: [u8; 512],
     at: usize,
     filled: usize,
+    /// How requests are retried.
+    pub timing: Timing,
+    /// Requests sent again because their reply did not come in time.
+    pub retries: u32,
 }
 
 /// What one read of the line gave (a frame is short-lived: not boxed).
@@ -144,6 +168,8 @@ impl Client {
             buffer: [0; 512],
             at: 0,
             filled: 0,
+            timing: Timing::default(),
+            retries: 0,
         };
         let mut received = 0usize;
         let start = Instant::now();
@@ -211,17 +237,29 @@ impl Client {
         if self.next_id == 0 {
             self.next_id = 1;
         }
-        let id = self.next_id;
-        send(&mut *self.link, &Request { id, command })?;
-        let start = Instant::now();
-        while start.elapsed() < REPLY {
-            match self.read()? {
-                Read::Frame(DeviceMsg::Reply { id: got, reply }) if got == id => return Ok(reply),
-                Read::Frame(DeviceMsg::Telemetry(t)) => self.telemetry.push(t),
-                // A late answer to a handshake repeat or to a request that timed out, or a frame
-                // damaged on the line: skipped.
-                _ => {}
+        let request = Request {
+            id: self.next_id,
+            command,
+        };
+        let mut wait = self.timing.first;
+        for attempt in 0..self.timing.attempts.max(1) {
+            if attempt > 0 {
+                self.retries = self.retries.saturating_add(1);
             }
+            send(&mut *self.link, &request)?;
+            let start = Instant::now();
+            while start.elapsed() < wait {
+                match self.read()? {
+                    Read::Frame(DeviceMsg::Reply { id, reply }) if id == request.id => {
+                        return Ok(reply);
+                    }
+                    Read::Frame(DeviceMsg::Telemetry(t)) => self.telemetry.push(t),
+                    // A late answer to a handshake repeat or to an earlier request, or a frame
+                    // damaged on the line: skipped.
+                    _ => {}
+                }
+            }
+            wait *= 2;
         }
         Err(ConsoleError::Timeout(what))
     }

@@ -14,6 +14,7 @@
 pub mod bringup;
 pub mod check;
 pub mod client;
+pub mod config;
 pub mod identify;
 pub mod interrupt;
 pub mod live;

@@ -35,6 +35,12 @@ pub const REDRAW: Duration = Duration::from_millis(100);
 /// The longest the line is read before the keys are looked at again.
 pub const SLICE: Duration = Duration::from_millis(20);
 /// Status requests (mode, fault, loads' misses), which also feed the link watchdog.
+/// The span of arrivals the measured rate and clock are taken over.
+const CLOCK_WINDOW: Duration = Duration::from_secs(3);
+
+/// Below this many firmware seconds per host second the header says the firmware is behind.
+const SLOW_CLOCK: f64 = 0.9;
+
 const STATUS_EVERY: Duration = Duration::from_millis(250);
 /// Points per plotted series, at most.
 pub const POINTS: usize = 1500;
@@ -97,8 +103,11 @@ pub struct View {
     last_seq: Option<u32>,
     /// The first frame's tick (time zero of the plots).
     tick0: Option<u64>,
-    /// Frames per second of the firmware's time.
+    /// Frames per second of the firmware's time (the subscription's).
     rate: f64,
+    /// Arrivals on the host's clock: when a batch came and the last frame's tick, over the
+    /// last [`CLOCK_WINDOW`] (the measured rate and the firmware's clock against the host's).
+    arrivals: VecDeque<(Instant, u64, u64)>,
     /// The header: firmware and board.
     title: String,
     /// The last thing done (a key's effect, an error of the line).
@@ -123,14 +132,46 @@ impl View {
             last_seq: None,
             tick0: None,
             rate,
+            arrivals: VecDeque::new(),
             title,
             message: "ready".into(),
             model: crate::record::paper_model(),
         }
     }
 
-    /// Takes telemetry frames (every channel, [`Channels::ALL`]).
+    /// Takes telemetry frames (every channel, [`Channels::ALL`]) received now.
     pub fn ingest(&mut self, frames: &[Telemetry]) {
+        self.ingest_at(frames, Instant::now());
+    }
+
+    /// [`Self::ingest`] of frames received at `now` on the host's clock.
+    pub fn ingest_at(&mut self, frames: &[Telemetry], now: Instant) {
+        self.receive(frames);
+        if let Some(f) = frames.last() {
+            self.arrivals.push_back((now, f.tick, self.frames));
+            while self
+                .arrivals
+                .front()
+                .is_some_and(|(t, ..)| now.duration_since(*t) > CLOCK_WINDOW)
+            {
+                self.arrivals.pop_front();
+            }
+        }
+    }
+
+    /// Over the last [`CLOCK_WINDOW`] of arrivals: frames received per second of the host's
+    /// clock, and the firmware's seconds per host second. `None` before a second of it.
+    pub fn measured(&self) -> Option<(f64, f64)> {
+        let (&(t0, tick0, n0), &(t1, tick1, n1)) = (self.arrivals.front()?, self.arrivals.back()?);
+        let wall = t1.duration_since(t0).as_secs_f64();
+        if wall < 1.0 {
+            return None;
+        }
+        let firmware = tick1.saturating_sub(tick0) as f64 / self.motor_hz;
+        Some(((n1 - n0) as f64 / wall, firmware / wall))
+    }
+
+    fn receive(&mut self, frames: &[Telemetry]) {
         for f in frames {
             if f.channels.0 != Channels::ALL {
                 continue;
@@ -189,7 +230,7 @@ impl View {
     /// Draws the whole view into `frame`.
     pub fn render(&self, frame: &mut Frame) {
         let [head, plots, loads, foot] = Layout::vertical([
-            Constraint::Length(3),
+            Constraint::Length(4),
             Constraint::Min(8),
             Constraint::Length(3),
             Constraint::Length(1),
@@ -289,10 +330,29 @@ impl View {
             Span::styled(mode, Style::new().fg(colour).bold()),
             Span::raw(format!("   fault: {fault}")),
             Span::raw(format!(
-                "   frames {} ({:.0}/s), lost {}, dropped {}, watchdog stops {}",
-                self.frames, self.rate, self.lost, dropped, stops
+                "   frames {}, lost {}, dropped {}, watchdog stops {}",
+                self.frames, self.lost, dropped, stops
             )),
         ]);
+        // The rate received on the host's clock, and the firmware's clock against it: an
+        // emulator on a loaded host falls behind real time (its arm's physics runs on its own
+        // clock, so nothing is wrong with the arm; the plots are slow).
+        let mut stream = vec![Span::raw(format!(" stream: {:.0}/s streamed, ", self.rate))];
+        match self.measured() {
+            None => stream.push(Span::raw("measuring")),
+            Some((r, c)) => {
+                stream.push(Span::raw(format!(
+                    "{r:.0}/s received; firmware clock {c:.2}× real time"
+                )));
+                if c < SLOW_CLOCK {
+                    stream.push(Span::styled(
+                        ": behind (a loaded host?)",
+                        Style::new().fg(Color::Yellow).bold(),
+                    ));
+                }
+            }
+        }
+        let line = vec![line, Line::from(stream)];
         frame.render_widget(
             Paragraph::new(line)
                 .block(Block::bordered().title(format!(" flexarm live · {} ", self.title))),

@@ -51,6 +51,28 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
+enum ConfigAction {
+    /// Every parameter's value on stdout as a TOML file, with its unit, range and the build's
+    /// default (`*` where the value differs from it; `?` when the build is not reproduced).
+    Dump {
+        /// The model file the firmware was built from (default: the paper's fragment), for the
+        /// build's defaults.
+        #[arg(long)]
+        model: Option<PathBuf>,
+    },
+    /// The parameters whose values on the board differ from FILE's.
+    Diff {
+        /// A dump.
+        file: PathBuf,
+    },
+    /// Writes FILE's values to the board (at rest; each validated by the firmware).
+    Restore {
+        /// A dump.
+        file: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
 enum Action {
     /// The handshake and the status: mode, fault, loads, counters.
     Status,
@@ -127,6 +149,28 @@ enum Action {
         /// Replace a `compare.svg` that no flexarm command wrote.
         #[arg(long)]
         force: bool,
+    },
+    /// The board's settings as a file: dump, diff against a dump, restore a dump.
+    #[command(subcommand)]
+    Config(ConfigAction),
+    /// The figure of a trace file already written (a recording, `faults`', a simulator's run)
+    /// as `plot_trace.svg` in OUT (no board needed).
+    Plot {
+        /// The trace's CSV.
+        file: PathBuf,
+        /// The folder to write into (created; a file there no flexarm command wrote is kept
+        /// unless --force).
+        out: PathBuf,
+        /// Replace a `plot_trace.svg` that no flexarm command wrote.
+        #[arg(long)]
+        force: bool,
+    },
+    /// The shell's completion script for flexarm (bash, zsh, fish, elvish, powershell) on
+    /// stdout, for example `flexarm completions bash > ~/.local/share/bash-completion/completions/flexarm`
+    /// (no board needed).
+    Completions {
+        /// The shell.
+        shell: clap_complete::Shell,
     },
     /// A guided first power-on: loop loads, each encoder's direction and scale (a nudge under
     /// a low torque limit), the film's sign and gain (a step of the patch's voltage); a
@@ -274,6 +318,24 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         print!("{}", params::list());
         return Ok(());
     }
+    // Offline: a trace's figure, the shell's completions.
+    match &cli.command {
+        Action::Plot { file, out, force } => {
+            let names = record::plot(file, out, *force)?;
+            println!("plot: wrote {} in {}", names.join(", "), out.display());
+            return Ok(());
+        }
+        Action::Completions { shell } => {
+            clap_complete::generate(
+                *shell,
+                &mut <Cli as clap::CommandFactory>::command(),
+                "flexarm",
+                &mut std::io::stdout(),
+            );
+            return Ok(());
+        }
+        _ => {}
+    }
     // Offline: a recording against the simulator.
     if let Action::Compare {
         recording,
@@ -283,6 +345,20 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
     {
         return compare(recording, *within, *force);
     }
+    // A dump's and a model file's mistakes before any connection too.
+    let dump = match &cli.command {
+        Action::Config(ConfigAction::Diff { file } | ConfigAction::Restore { file }) => {
+            Some(flexarm_console::config::parse(file)?)
+        }
+        _ => None,
+    };
+    let model = match &cli.command {
+        Action::Config(ConfigAction::Dump { model: Some(m) }) => Some(
+            std::fs::read_to_string(m)
+                .map_err(|e| ConsoleError::Usage(format!("{}: {e}", m.display())))?,
+        ),
+        _ => None,
+    };
     // A file's mistakes before any connection.
     let path = match &cli.command {
         Action::Move(MoveKind::Waypoints { file })
@@ -358,20 +434,14 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         }
         Action::Move(m) => {
             let (what, m) = to_move(m, path.as_deref())?;
+            let before = c.status()?;
             start_move(&mut c, what, m, path.as_deref())?;
             println!("{what}: started");
             // Stay on the line until the move has ended: the requests feed the link watchdog,
             // which would stop a move whose host went away.
             let ended = interrupt::follow_move(&mut c, what, &mut Vec::new(), None)?;
-            match ended.fault {
-                None => println!("{what}: ended, holding"),
-                Some(f) => {
-                    return Err(ConsoleError::Unexpected(format!(
-                        "the move ended in fault {f} ({})",
-                        fault_name(f)
-                    )));
-                }
-            }
+            move_outcome(what, &before, &ended)?;
+            println!("{what}: ended, holding");
         }
         Action::Record {
             seconds,
@@ -550,7 +620,8 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             Command::TestAmplifierFault(state == "on"),
         )?,
         // Offline, handled before connecting.
-        Action::Compare { .. } => {}
+        Action::Compare { .. } | Action::Plot { .. } | Action::Completions { .. } => {}
+        Action::Config(action) => config(&mut c, action, model.as_deref(), dump)?,
     }
     Ok(())
 }
@@ -700,6 +771,74 @@ fn to_move(m: MoveKind, path: Option<&[Waypoint]>) -> Result<(&'static str, Move
     })
 }
 
+/// `config dump`, `diff` and `restore` (`flexarm_console::config`); `dump` is the file's
+/// values, read before connecting.
+fn config(
+    c: &mut Client,
+    action: ConfigAction,
+    model: Option<&str>,
+    dump: Option<Vec<(flexarm_link::msg::Param, f32)>>,
+) -> Result<(), ConsoleError> {
+    use flexarm_console::config;
+    let dump = dump.unwrap_or_default();
+    match action {
+        ConfigAction::Dump { .. } => {
+            let values = config::read(c)?;
+            let build = config::build_config(&c.hello, model);
+            print!("{}", config::text(&c.hello, &values, build.as_ref()));
+        }
+        ConfigAction::Diff { file } => {
+            let differ = config::diff(&config::read(c)?, &dump);
+            for (p, board, f) in &differ {
+                println!(
+                    "{}: board {board} {unit}, file {f} {unit}",
+                    p.info().name,
+                    unit = p.info().unit
+                );
+            }
+            println!(
+                "config diff: {} of {} differ from {}",
+                differ.len(),
+                dump.len(),
+                file.display()
+            );
+        }
+        ConfigAction::Restore { file } => {
+            let written = config::restore(c, &dump)?;
+            println!(
+                "config restore: wrote {} from {}",
+                written.join(", "),
+                file.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// How a move that is no longer running ended, from the drive's status before it started and
+/// after: `Ok` only when it ran to its end and holds there; a fault, a stop by the link watchdog
+/// (the host fell silent for the link timeout) or a disarm is an error that says which.
+fn move_outcome(what: &str, before: &Status, after: &Status) -> Result<(), ConsoleError> {
+    if let Some(f) = after.fault {
+        return Err(ConsoleError::Unexpected(format!(
+            "{what}: the move ended in fault {f} ({})",
+            fault_name(f)
+        )));
+    }
+    if after.link_stops > before.link_stops {
+        return Err(ConsoleError::Unexpected(format!(
+            "{what}: stopped short of its end by the link watchdog (no request reached the board for its link timeout); the arm holds where it stopped"
+        )));
+    }
+    if after.mode != Mode::Armed {
+        return Err(ConsoleError::Unexpected(format!(
+            "{what}: the drive left the move {:?}, not holding its end",
+            after.mode
+        )));
+    }
+    Ok(())
+}
+
 /// Uploads a path's waypoints in chunks, then starts the move (the caller says so: the live
 /// view draws its own screen).
 fn start_move(
@@ -811,7 +950,13 @@ fn print_status(s: &Status) {
         );
     }
     println!(
-        "motor periods {}, telemetry dropped {}, watchdog stops {}, received {} bytes ({} lost), stack {} bytes",
-        s.ticks, s.telemetry_dropped, s.link_stops, s.rx_bytes, s.rx_lost, s.stack_used
+        "motor periods {}, telemetry dropped {}, watchdog stops {}, received {} bytes ({} lost, {} malformed requests), stack {} bytes",
+        s.ticks,
+        s.telemetry_dropped,
+        s.link_stops,
+        s.rx_bytes,
+        s.rx_lost,
+        s.rx_malformed,
+        s.stack_used
     );
 }

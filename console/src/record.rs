@@ -337,11 +337,15 @@ fn progress(seconds: f64) -> indicatif::ProgressBar {
 
 /// A trace as the study's outcome, for its CSV and figure writers.
 fn outcome(trace: Vec<Sample>, scenario: &'static str) -> Outcome {
+    outcome_of(trace, scenario, "firmware")
+}
+
+fn outcome_of(trace: Vec<Sample>, scenario: &'static str, controller: &'static str) -> Outcome {
     let summary = summarize(&trace, tail_window(&trace));
     Outcome {
         case: Case {
             scenario,
-            controller: "firmware",
+            controller,
             config: SimConfig::default(),
             trajectory: JointTrajectory::Hold(Vector2::zeros()),
         },
@@ -370,6 +374,24 @@ pub fn save(r: Recording, out: &Path, force: bool) -> Result<Vec<String>, Consol
         .and_then(|()| flexarm_sim::output::write_csv(staged, &o))
         .map_err(|e| ConsoleError::Io(format!("{}: {e}", out.display())))?;
     flexarm_sim::output::write_figure(staged, &o)
+        .map_err(|e| ConsoleError::Io(format!("the figure: {e}")))?;
+    dir.commit().map_err(ConsoleError::Io)
+}
+
+/// `flexarm plot`: the figure of a trace file already written (a recording, the fault
+/// recorder's, a simulator's run: `flexarm_sim::output`'s format) as `plot_trace.svg` in `out`,
+/// the same panels as the recording's; returns the file's name.
+pub fn plot(csv: &Path, out: &Path, force: bool) -> Result<Vec<String>, ConsoleError> {
+    let trace = flexarm_sim::output::read_csv(csv).map_err(ConsoleError::Usage)?;
+    if trace.len() < 2 {
+        return Err(ConsoleError::Usage(format!(
+            "{}: {} samples: nothing to plot",
+            csv.display(),
+            trace.len()
+        )));
+    }
+    let dir = OutDir::open(out, "plot", force).map_err(ConsoleError::Io)?;
+    flexarm_sim::output::write_figure(dir.staging(), &outcome_of(trace, "plot", "trace"))
         .map_err(|e| ConsoleError::Io(format!("the figure: {e}")))?;
     dir.commit().map_err(ConsoleError::Io)
 }

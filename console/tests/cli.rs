@@ -74,6 +74,7 @@ fn ours(c: &Command) -> Option<Reply> {
             link_stops: 0,
             rx_bytes: 99,
             rx_lost: 0,
+            rx_malformed: 0,
             stack_used: 1700,
         }),
         Command::Arm => Reply::Done,
@@ -484,6 +485,7 @@ fn a_waypoint_file_is_uploaded_in_chunks_and_run() {
                 link_stops: 0,
                 rx_bytes: 0,
                 rx_lost: 0,
+                rx_malformed: 0,
                 stack_used: 0,
             })),
             other => ours(other),
@@ -593,6 +595,7 @@ fn a_terminate_signal_stops_the_move_before_the_tool_exits() {
                     link_stops: 0,
                     rx_bytes: 0,
                     rx_lost: 0,
+                    rx_malformed: 0,
                     stack_used: 0,
                 }));
             }
@@ -653,4 +656,212 @@ fn a_terminate_signal_stops_the_move_before_the_tool_exits() {
         err.contains("interrupted") && err.contains("stopped"),
         "{err}"
     );
+}
+
+/// A move the link watchdog cut short is reported as such, exit 1, not as "ended, holding"
+/// (issue 36: after a console pause it printed `ended, holding` and exited 0).
+#[test]
+fn a_move_the_watchdog_stopped_is_not_reported_as_ended() {
+    use std::sync::atomic::{AtomicU32, Ordering::SeqCst};
+    static STATUS_AFTER_MOVE: AtomicU32 = AtomicU32::new(0);
+    fn cut_short(c: &Command) -> Option<Reply> {
+        let moving = match c {
+            Command::Move(_) => {
+                STATUS_AFTER_MOVE.store(1, SeqCst);
+                return Some(Reply::Done);
+            }
+            Command::Status => match STATUS_AFTER_MOVE.load(SeqCst) {
+                0 => None,
+                n => {
+                    STATUS_AFTER_MOVE.store(n + 1, SeqCst);
+                    Some(n < 3)
+                }
+            },
+            _ => return ours(c),
+        };
+        // Moving for two polls, then holding with one watchdog stop counted.
+        Some(Reply::Status(Status {
+            mode: if moving == Some(true) {
+                Mode::Moving
+            } else {
+                Mode::Armed
+            },
+            fault: None,
+            ticks: 0,
+            loads: [Load::default(); 2],
+            telemetry_dropped: 0,
+            link_stops: u32::from(moving == Some(false)),
+            rx_bytes: 0,
+            rx_lost: 0,
+            rx_malformed: 0,
+            stack_used: 0,
+        }))
+    }
+    let at = format!("127.0.0.1:{}", firmware(cut_short));
+    let o = flexarm(&[
+        "--tcp",
+        &at,
+        "move",
+        "trapezoid",
+        "--to",
+        "0.3,0.1",
+        "--time",
+        "2",
+        "--ramp",
+        "0.5",
+    ]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}{err}");
+    assert!(out.contains("move trapezoid: started"), "{out}");
+    assert!(!out.contains("ended, holding"), "{out}");
+    assert!(
+        err.contains("stopped short of its end by the link watchdog"),
+        "{err}"
+    );
+}
+
+/// `plot` draws a trace file already written, without a board; a file that is not a trace is
+/// one line naming it; `completions` prints a shell's script that knows the subcommands.
+#[test]
+fn plot_and_completions_need_no_board() {
+    let dir = std::env::temp_dir().join(format!("flexarm-plot-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    // A short trace in the simulator's format, written by the simulator's own writer.
+    let traj = flexarm_core::trajectory::JointTrajectory::Trapezoid(
+        flexarm_core::trajectory::Trapezoid::paper(),
+    );
+    let cfg = flexarm_sim::sim::SimConfig {
+        duration: 0.5,
+        tail_window: 0.25,
+        ..flexarm_sim::sim::SimConfig::default()
+    };
+    let (summary, trace) = flexarm_sim::sim::simulate(&cfg, &traj, true).unwrap();
+    let o = flexarm_sim::study::Outcome {
+        case: flexarm_sim::study::Case {
+            scenario: "short",
+            controller: "paper",
+            config: cfg,
+            trajectory: traj,
+        },
+        summary,
+        trace,
+    };
+    flexarm_sim::output::write_csv(&dir, &o).unwrap();
+    let csv = dir.join("short_paper.csv");
+    let out = dir.join("figures");
+    let o = flexarm(&["plot", csv.to_str().unwrap(), out.to_str().unwrap()]);
+    let (stdout, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{stdout}{err}");
+    assert!(stdout.contains("plot: wrote plot_trace.svg"), "{stdout}");
+    let svg = std::fs::read_to_string(out.join("plot_trace.svg")).unwrap();
+    assert!(
+        svg.starts_with("<svg") && svg.len() > 10_000,
+        "{}",
+        svg.len()
+    );
+    // Not a trace: named, nothing written.
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, "a,b\n1,2\n").unwrap();
+    fails_with(
+        &[
+            "plot",
+            bad.to_str().unwrap(),
+            dir.join("none").to_str().unwrap(),
+        ],
+        "bad.csv",
+    );
+    assert!(!dir.join("none").join("plot_trace.svg").exists());
+    // Completions.
+    let o = flexarm(&["completions", "bash"]);
+    let (script, _) = text(&o);
+    assert_eq!(o.status.code(), Some(0));
+    for word in ["flexarm", "move", "record", "plot", "completions", "--tcp"] {
+        assert!(script.contains(word), "{word}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `config dump` writes every parameter as a file that `config diff` and `config restore` read
+/// back; a dump with a mistake is named by file, line and key before any connection.
+#[test]
+fn config_dump_diff_and_restore() {
+    let dir = std::env::temp_dir().join(format!("flexarm-config-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let at = |port: u16| format!("127.0.0.1:{port}");
+    let o = flexarm(&["--tcp", &at(firmware(ours)), "config", "dump"]);
+    let (dump, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    // Every parameter, its unit and range; the stand-in's build is not one the console
+    // reproduces: its defaults are unknown.
+    for p in flexarm_link::params::PARAMS {
+        assert!(
+            dump.contains(&format!("\n{} = 30.0 # [{}]", p.name, p.unit)),
+            "{} in\n{dump}",
+            p.name
+        );
+    }
+    assert!(dump.contains("params_hash = \"12345678\"") && dump.contains("build default ?"));
+    // (The stand-in answers 30 to every get; a board's va_min is negative.)
+    let dump = dump.replace("\nva_min = 30.0", "\nva_min = -30.0");
+    let file = dir.join("dump.toml");
+    std::fs::write(&file, dump.replace("\nkc = 30.0", "\nkc = 3.0")).unwrap();
+    let o = flexarm(&[
+        "--tcp",
+        &at(firmware(ours)),
+        "config",
+        "diff",
+        file.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(out.contains("kc: board 30 s, file 3 s"), "{out}");
+    assert!(out.contains("va_min: board 30 V, file -30 V"), "{out}");
+    assert!(
+        out.contains(&format!(
+            "config diff: 2 of {} differ",
+            flexarm_link::params::PARAMS.len()
+        )),
+        "{out}"
+    );
+    let o = flexarm(&[
+        "--tcp",
+        &at(firmware(ours)),
+        "config",
+        "restore",
+        file.to_str().unwrap(),
+    ]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(
+        out.contains("config restore: wrote") && out.contains("kc") && !out.contains("va_bias"),
+        "{out}"
+    );
+    // Mistakes, before connecting (nothing listens on port 1).
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, dump.replace("\nkc = 30.0", "\nnope = 1.0")).unwrap();
+    let line = dump.lines().position(|l| l.starts_with("kc = ")).unwrap() + 1;
+    fails_with(
+        &[
+            "--tcp",
+            "127.0.0.1:1",
+            "config",
+            "restore",
+            bad.to_str().unwrap(),
+        ],
+        &format!("bad.toml:{line}: `params.nope`: no such parameter"),
+    );
+    std::fs::write(&bad, dump.replace("\nkc = 30.0", "\nkc = -5.0")).unwrap();
+    fails_with(
+        &[
+            "--tcp",
+            "127.0.0.1:1",
+            "config",
+            "diff",
+            bad.to_str().unwrap(),
+        ],
+        "`params.kc`: -5 is outside its range",
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

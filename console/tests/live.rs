@@ -135,6 +135,7 @@ fn status(mode: Mode, fault: Option<u8>) -> Status {
         link_stops: 1,
         rx_bytes: 0,
         rx_lost: 0,
+        rx_malformed: 0,
         stack_used: 0,
     }
 }
@@ -203,7 +204,8 @@ fn the_panels_show_the_latest_values_and_the_state() {
         "flexarm live · stand-in on Qemu",
         "mode: MOVING",
         "fault: none",
-        "frames 501 (1000/s), lost 3, dropped 5, watchdog stops 1",
+        "frames 501, lost 3, dropped 5, watchdog stops 1",
+        "stream: 1000/s streamed, measuring",
         "tracking error [mrad]  e1 +1.234  e2 -2.000",
         "δ̂1 +0.100  δ̂2 -0.020 [×1e-3]",
         "piezo [V]  V_a +12.50  V_f +0.0625",
@@ -326,4 +328,50 @@ fn a_flood_of_frames_neither_holds_the_keys_nor_grows_the_view() {
     view.ingest(&many);
     assert!(view.points_held() <= live::POINTS, "{}", view.points_held());
     assert!(view.points_held() >= live::POINTS / 2);
+}
+
+/// The header shows the rate that arrives on the host's clock, and says when the firmware's
+/// clock runs behind it (an emulator on a loaded host: issue 36's "(100/s)" whatever arrived).
+#[test]
+fn the_header_shows_the_rate_received_and_a_firmware_clock_behind_real_time() {
+    // A firmware at half of real time streaming every period of its 1 kHz loop: 50 frames
+    // (50 ms of its time) every 0.1 s of the host's clock, for 2 s.
+    let mut slow = View::new("stand-in on Qemu".into(), 1000, 1, 10.0);
+    let start = Instant::now();
+    let mut seq = 0u32;
+    for k in 0..20u32 {
+        let frames: Vec<_> = (0..50)
+            .map(|_| {
+                seq += 1;
+                frame(seq, u64::from(seq), [0.0; 12])
+            })
+            .collect();
+        slow.ingest_at(&frames, start + Duration::from_millis(100 * u64::from(k)));
+    }
+    let (rate, clock) = slow.measured().unwrap();
+    assert!(
+        (rate - 500.0).abs() < 30.0 && (clock - 0.5).abs() < 0.03,
+        "{rate} {clock}"
+    );
+    let s = screen(&slow);
+    assert!(s.contains("500/s received"), "{s}");
+    assert!(s.contains("firmware clock 0.50× real time: behind"), "{s}");
+    // At full speed: no warning.
+    let mut fast = View::new("stand-in on Qemu".into(), 1000, 1, 10.0);
+    let start = Instant::now();
+    let mut seq = 0u32;
+    for k in 0..20u32 {
+        let frames: Vec<_> = (0..100)
+            .map(|_| {
+                seq += 1;
+                frame(seq, u64::from(seq), [0.0; 12])
+            })
+            .collect();
+        fast.ingest_at(&frames, start + Duration::from_millis(100 * u64::from(k)));
+    }
+    let s = screen(&fast);
+    assert!(
+        s.contains("1000/s received") && !s.contains("behind"),
+        "{s}"
+    );
 }

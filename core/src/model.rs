@@ -93,6 +93,30 @@ impl<T: Real> Model<T> {
         self.terms_sc(s2, c2, q).inertia()
     }
 
+    /// The fastest rate of the joints' velocity loop under the joint gains `kp` [N·m·s/rad]:
+    /// the largest eigenvalue of `M_θθ(θ2)⁻¹ diag(kp)` (the rigid joints' block of `B` with the
+    /// link at rest) over 17 poses `θ2 = kπ/16`, `k = 0…16` (`B` depends on `cos θ2` alone)
+    /// [1/s]. The sampled loop `ṽ ← (1 − λT) ṽ` diverges for `λT > 2`; the gains keep `λT ≤ 1`
+    /// (`crate::params::Gains::default_for`, `crate::tuning`).
+    pub fn velocity_loop_rate(&self, kp: Vector2<T>) -> T {
+        let mut worst = T::zero();
+        for k in 0..=16u8 {
+            let theta2 = T::c(f64::from(k) * core::f64::consts::PI / 16.0);
+            let t = self.terms(&Vector4::new(T::zero(), theta2, T::zero(), T::zero()));
+            // det(K − λ M) = 0: det(M) λ² − (k1 m22 + k2 m11) λ + k1 k2 = 0, the larger root.
+            let a = t.b11 * t.b22 - t.b12 * t.b12;
+            let b = kp.x * t.b22 + kp.y * t.b11;
+            let c = kp.x * kp.y;
+            let disc = b * b - T::c(4.0) * a * c;
+            let disc = if disc > T::zero() { disc } else { T::zero() };
+            let rate = (b + disc.lsqrt()) / (T::c(2.0) * a);
+            if rate > worst {
+                worst = rate;
+            }
+        }
+        worst
+    }
+
     /// The configuration-dependent terms of `B(q)` and `∂B/∂q`, computed once per step.
     #[inline(always)]
     pub fn terms(&self, q: &Vector4<T>) -> Terms<T> {

@@ -1,7 +1,8 @@
 //! The parameters a host may read and change on a running controller (the link's `get`/`set`):
 //! the motor gains `K_p`, `Λ`, `D_Δ`, the piezo gain `k_c` and its filter corner, the torque and
 //! voltage limits. A change is validated with the rules of [`Controller::new`], against the
-//! board's ceilings and with the filter corner below the piezo loop's Nyquist rate, before
+//! board's ceilings, with the filter corner below the piezo loop's Nyquist rate and the motor
+//! gains inside the sampled loop's stable region at the motor period, before
 //! anything is written, refused while a move runs, and written whole
 //! between two control steps (the caller holds the controller, so neither loop sees half of it).
 //! Units as in `crate::params` and `crate::control::piezo`.
@@ -83,6 +84,31 @@ impl<T: Real> Tuning<T> {
         }
     }
 
+    /// Whether a change of `K_p` or `Λ` keeps the sampled motor loop where the model says it
+    /// is stable with margin: the velocity loop's fastest rate
+    /// ([`crate::model::Model::velocity_loop_rate`]) and every `λ_i` times the motor period at
+    /// most 1 (the rule [`crate::params::Gains::default_for`] builds the boards' gains by; the
+    /// sampled loops diverge above 2: `K_p = 1e6` flipped the holding torque by ±4 N·m every
+    /// period, issue 36). 1e-3 of slack for `f32` rounding: the QEMU board's gains sit at
+    /// 0.9996. Other parameters do not move it and are not held to it.
+    fn sampled_stable(
+        &self,
+        ctrl: &Controller<T>,
+        p: Tunable,
+        gains: &crate::params::Gains<T>,
+    ) -> bool {
+        if !matches!(p, Tunable::Kp(_) | Tunable::Lambda(_)) {
+            return true;
+        }
+        let bound = T::c(1.0 + 1e-3);
+        let period = ctrl.motor_period;
+        let rate = ctrl
+            .motor
+            .model
+            .velocity_loop_rate(Vector2::new(gains.kp.x, gains.kp.y));
+        rate * period <= bound && gains.lambda.iter().all(|l| *l * period <= bound)
+    }
+
     /// Sets `p` to `value` when the drive is in `mode` (anything but moving or stopping).
     pub fn set(
         &mut self,
@@ -119,6 +145,7 @@ impl<T: Real> Tuning<T> {
             || limits.validate().is_err()
             || !law.is_valid_or_off()
             || !within
+            || !self.sampled_stable(ctrl, p, &gains)
         {
             return Err(TuneError::OutOfRange);
         }

@@ -255,6 +255,9 @@ fn the_velocity_loop_rate_is_the_models() {
             .fold(0.0, f64::max)
     };
     let paper = worst(&Gains::default());
+    // The core's routine (17 poses) against this scan of 361, each pose by the matrix product.
+    let core = m.velocity_loop_rate(flexarm_core::Vector2::new(90.0, 14.0));
+    assert!((core - paper).abs() < 1e-9 * paper, "{core} {paper}");
     assert!(
         paper <= PAPER_VELOCITY_LOOP_RATE && paper > PAPER_VELOCITY_LOOP_RATE - 0.5,
         "{paper}"

@@ -413,19 +413,28 @@ mod app {
             cx.shared.board.lock(|b| b.inject_amplifier_fault(on));
         }
         let session = &mut cx.local.session;
-        let reply = match request.command {
-            flexarm_link::Command::Move(m) => session::start_move(
-                m,
-                &mut cx.shared.control,
-                &mut cx.shared.drive,
-                cx.local.snapshot,
-            ),
-            command => (
-                &mut cx.shared.control,
-                &mut cx.shared.drive,
-                &mut cx.shared.recorder,
-            )
-                .lock(|c, d, r| session.answer(command, c, d, r, &io)),
+        // A retried request (its reply was lost) gets the first answer, not applied again.
+        let reply = match session.repeated(&request) {
+            Some(reply) => reply,
+            None => {
+                let kind = session::Kind::of(&request.command);
+                let reply = match request.command {
+                    flexarm_link::Command::Move(m) => session::start_move(
+                        m,
+                        &mut cx.shared.control,
+                        &mut cx.shared.drive,
+                        cx.local.snapshot,
+                    ),
+                    command => (
+                        &mut cx.shared.control,
+                        &mut cx.shared.drive,
+                        &mut cx.shared.recorder,
+                    )
+                        .lock(|c, d, r| session.answer(command, c, d, r, &io)),
+                };
+                session.remember(request.id, kind, &reply);
+                reply
+            }
         };
         link::send(
             cx.local.serial,

@@ -16,8 +16,8 @@ use flexarm_core::Vector2;
 use flexarm_core::drive::{Drive, Refused};
 use flexarm_core::time::{MoveClock, Ticks};
 use flexarm_core::trajectory::JointTrajectory;
-use flexarm_link::Command;
 use flexarm_link::msg::{Reply, Telemetry};
+use flexarm_link::{Command, Request};
 use flexarm_machine::period::{self, Control, FaultRecorder, MotorLoop, Period};
 use flexarm_machine::session::{self, Identity, Io, Session, Snapshot};
 use flexarm_machine::{Board, BoardConfig, Record};
@@ -193,6 +193,19 @@ impl<B: Board> Rig<B> {
                 &io,
             ),
         }
+    }
+
+    /// The answer to a request of the link as the firmware's idle task gives it: the first
+    /// answer again for a repeat of the last request that acted ([`Session::repeated`]), else
+    /// [`Self::answer`], remembered.
+    pub fn request(&mut self, request: &Request) -> Reply {
+        if let Some(reply) = self.session.repeated(request) {
+            return reply;
+        }
+        let reply = self.answer(request.command.clone());
+        let kind = session::Kind::of(&request.command);
+        self.session.remember(request.id, kind, &reply);
+        reply
     }
 
     /// The queued records, oldest first, as the idle task takes them, with the telemetry frames

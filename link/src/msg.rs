@@ -413,6 +413,9 @@ pub struct Status {
     pub rx_bytes: u32,
     /// Received bytes lost because the receive queue was full.
     pub rx_lost: u32,
+    /// Request frames that did not decode (damaged or cut on the line: each a lost request,
+    /// which has no id to answer).
+    pub rx_malformed: u32,
     /// The stack's high-water mark since boot [bytes].
     pub stack_used: u32,
 }

@@ -124,6 +124,7 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
                     link_stops,
                     rx_bytes: rx,
                     rx_lost: lost,
+                    rx_malformed: 0,
                     stack_used: stack,
                 })
             },
@@ -291,6 +292,7 @@ fn the_largest_of_every_message_fits_a_frame() {
                 link_stops: u32::MAX,
                 rx_bytes: u32::MAX,
                 rx_lost: u32::MAX,
+                rx_malformed: 0,
                 stack_used: u32::MAX,
             }),
         },
@@ -330,6 +332,7 @@ fn a_message_by_reference_is_the_same_frame() {
         link_stops: 2,
         rx_bytes: 300,
         rx_lost: 4,
+        rx_malformed: 0,
         stack_used: 1800,
     });
     let t = Telemetry {

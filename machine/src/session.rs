@@ -79,6 +79,65 @@ pub struct Session {
     subscription: Option<Channels>,
     seq: u32,
     dropped: u32,
+    /// Request frames that did not decode.
+    malformed: u32,
+    /// The last request that acts on the arm or its settings, and its answer: the same id
+    /// again (a host's retry after a lost reply) gets this answer, the request not applied a
+    /// second time. A handshake forgets it (a new host counts its ids from the start).
+    applied: Option<(u16, Answer)>,
+}
+
+/// The answer to a request that acts (the only kinds it has), kept for a repeat.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Answer {
+    Done,
+    Cleared(u8),
+    Refused(Refusal),
+}
+
+impl Answer {
+    fn of(reply: &Reply) -> Option<Self> {
+        match *reply {
+            Reply::Done => Some(Self::Done),
+            Reply::Cleared(f) => Some(Self::Cleared(f)),
+            Reply::Refused(r) => Some(Self::Refused(r)),
+            _ => None,
+        }
+    }
+
+    fn reply(self) -> Reply {
+        match self {
+            Self::Done => Reply::Done,
+            Self::Cleared(f) => Reply::Cleared(f),
+            Self::Refused(r) => Reply::Refused(r),
+        }
+    }
+}
+
+/// What a request does, for its repeats ([`Session::repeated`], [`Session::remember`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// The handshake: a new host, which counts its ids from the start.
+    Handshake,
+    /// Acts on the arm, the drive, the recorder or the settings: applying it twice is not
+    /// applying it once (a second `Move` would be refused as moving or start again, a second
+    /// `Clear` be refused as having nothing to clear).
+    Acts,
+    /// Only reads (status, a value, a page of the recorder, a ping): a repeat reads again.
+    Reads,
+}
+
+impl Kind {
+    /// The kind of `command`.
+    pub fn of(command: &Command) -> Self {
+        match command {
+            Command::Hello { .. } => Self::Handshake,
+            Command::Status | Command::Get(_) | Command::Faults { .. } | Command::Ping => {
+                Self::Reads
+            }
+            _ => Self::Acts,
+        }
+    }
 }
 
 /// Whether a stream of `channels` every `decimation` motor periods of a `motor_hz` loop fits
@@ -101,14 +160,43 @@ impl Session {
             subscription: None,
             seq: 0,
             dropped: 0,
+            malformed: 0,
+            applied: None,
         }
     }
 
     /// Takes one received byte; returns a complete request, or the error of a frame that did
-    /// not decode (it has no id to answer; the caller logs it).
+    /// not decode (it has no id to answer; counted in `Status::rx_malformed`, the caller logs
+    /// it).
     #[inline(never)]
     pub fn receive(&mut self, byte: u8) -> Option<Result<Request, FrameError>> {
-        self.decoder.push_request(byte)
+        let r = self.decoder.push_request(byte);
+        if let Some(Err(_)) = r {
+            self.malformed = self.malformed.saturating_add(1);
+        }
+        r
+    }
+
+    /// The answer already given to `request` when it repeats the last request that acted, by
+    /// its id: the host retried after losing the reply, and the request is not applied again.
+    /// `None`: answer it ([`Self::answer`], [`start_move`]), then [`Self::remember`] it.
+    pub fn repeated(&self, request: &Request) -> Option<Reply> {
+        match self.applied {
+            Some((id, answer)) if id == request.id && Kind::of(&request.command) == Kind::Acts => {
+                Some(answer.reply())
+            }
+            _ => None,
+        }
+    }
+
+    /// Keeps `reply`, the answer to the request `id` of kind `kind`, for a repeat (a request
+    /// that acts), or forgets the last one (a handshake: a new host).
+    pub fn remember(&mut self, id: u16, kind: Kind, reply: &Reply) {
+        match kind {
+            Kind::Handshake => self.applied = None,
+            Kind::Acts => self.applied = Answer::of(reply).map(|a| (id, a)),
+            Kind::Reads => {}
+        }
     }
 
     /// The answer to `command`, applied to the controller, the drive and the fault recorder
@@ -143,6 +231,7 @@ impl Session {
                 link_stops: drive.link_stops(),
                 rx_bytes: io.rx_bytes,
                 rx_lost: io.rx_lost,
+                rx_malformed: self.malformed,
                 stack_used: io.stack_used,
             }),
             Command::Ping => Reply::Done,

@@ -338,7 +338,22 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
     let mut b = Bench::new(Vector2::zeros());
     // The board's: its piezo period, its ceilings (10 N·m, the hardware's ±175 V window).
     let mut t = b.rig.cfg.tuning();
-    // At rest: applied, and read back.
+    // At rest: applied, and read back. (A K_p whose velocity loop runs at 0.99 of the rate
+    // the period allows is accepted, 1.01 refused: `Model::velocity_loop_rate`.)
+    let kp = b.rig.control.ctrl.motor.gains.kp;
+    let rate = |k: f32| {
+        let m = &b.rig.control.ctrl.motor.model;
+        m.velocity_loop_rate(Vector2::new(k * kp.x, k * kp.y)) * b.rig.control.ctrl.motor_period
+    };
+    let edge = 1.0 / rate(1.0);
+    for (k, ok) in [(0.99 * edge, true), (1.01 * edge, false)] {
+        let r = b
+            .tune(&mut t, Tunable::Kp(0), k * kp.x)
+            .and_then(|()| b.tune(&mut t, Tunable::Kp(1), k * kp.y));
+        assert_eq!(r.is_ok(), ok, "K_p × {k}: {r:?}");
+        b.tune(&mut t, Tunable::Kp(0), kp.x).unwrap();
+        b.tune(&mut t, Tunable::Kp(1), kp.y).unwrap();
+    }
     b.tune(&mut t, Tunable::Kp(1), 20.0).unwrap();
     assert_eq!(t.get(&b.rig.control.ctrl, Tunable::Kp(1)), Ok(20.0));
     assert_eq!(b.rig.control.ctrl.motor.gains.kp.y, 20.0);
@@ -381,6 +396,12 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
         (Tunable::VaMax, 180.0, TuneError::OutOfRange),
         (Tunable::VaMin, 5.0, TuneError::OutOfRange),
         (Tunable::VaMin, -180.0, TuneError::OutOfRange),
+        // Outside the sampled motor loop's stable region at this board's 1 kHz (issue 36):
+        // K_p 1e6 (its velocity loop's rate times the period far past 1), Λ 1e9, and a Λ just
+        // past the rule λT ≤ 1 (1.005).
+        (Tunable::Kp(0), 1e6, TuneError::OutOfRange),
+        (Tunable::Lambda(0), 1e9, TuneError::OutOfRange),
+        (Tunable::Lambda(1), 1005.0, TuneError::OutOfRange),
         (Tunable::Kp(4), 1.0, TuneError::Unknown),
         (Tunable::DDelta(2), 1.0, TuneError::Unknown),
     ] {
