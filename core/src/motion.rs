@@ -324,8 +324,7 @@ impl<T: Real> MotionMonitor<T> {
     }
 
     /// The encoder plausibility check's evidence in the last period: the largest over the
-    /// joints of `|(y − y_0) − d| / (u + encoder_band)` (module docs; 1 trips, when the
-    /// reading has changed since the anchor).
+    /// joints of `|(y − y_0) − d| / (u + encoder_band)` (module docs; above 1 it trips).
     pub fn encoder_evidence(&self) -> T {
         self.evidence
     }
@@ -414,7 +413,7 @@ impl<T: Real> MotionMonitor<T> {
                 }
                 anchor = r.slack >= l.encoder_slack && (thj != r.reading || off <= l.encoder_band);
             }
-            if anchor || previous.is_some_and(|p| thj != pick(&p.theta)) {
+            if previous.is_none_or(|p| thj != pick(&p.theta)) {
                 r.reference = theta_d;
             }
             // The next period: the speed `θ̇̂` is the observer's for its end (it has taken this
