@@ -527,7 +527,8 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     let plan = inertia_plan(moves);
                     let trace = flexarm_console::identify::inertia(&mut c, &plan)?;
                     workflow::save_record(staging, "inertia", &trace).map_err(ConsoleError::Io)?;
-                    workflow::save_inertia(staging, &trace, None, None)
+                    let geometry = identify::geometry::Geometry::default();
+                    workflow::save_inertia(staging, &trace, None, &geometry, None)
                         .map_err(ConsoleError::Failed)?
                         .1
                 }

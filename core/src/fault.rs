@@ -28,7 +28,8 @@ pub enum Fault {
     /// The inertia matrix could not be factored (non-finite state).
     Singular,
     /// The crystal or the PLL did not start, or the clock security system saw the crystal
-    /// stop: the chip runs on its internal oscillator, at which the loop rates are wrong.
+    /// stop: the chip runs on its internal oscillator (through the PLL at 168 MHz if it locks),
+    /// whose tolerance is not the crystal's.
     Clock,
     /// The brown-out reset is off in the option bytes: a sagging supply could run the chip
     /// outside its specification with the amplifiers on.

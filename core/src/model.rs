@@ -94,27 +94,31 @@ impl<T: Real> Model<T> {
     }
 
     /// The fastest rate of the joints' velocity loop under the joint gains `kp` [N·m·s/rad]:
-    /// the largest eigenvalue of `M_θθ(θ2)⁻¹ diag(kp)` (the rigid joints' block of `B` with the
-    /// link at rest) over 17 poses `θ2 = kπ/16`, `k = 0…16` (`B` depends on `cos θ2` alone)
-    /// [1/s]. The sampled loop `ṽ ← (1 − λT) ṽ` diverges for `λT > 2`; the gains keep `λT ≤ 1`
+    /// the largest eigenvalue of `M(θ2)⁻¹ diag(kp)` over every `θ2`, `M` the rigid joints'
+    /// block of `B` with the link at rest, `M = M₀ + cos θ2 M₁` (`m11 = A + J + 2 S cos θ2`,
+    /// `m12 = J + S cos θ2`, `m22 = J`) [1/s]. It is the larger of its values at
+    /// `cos θ2 = ±1`: `λ_max = max_x xᵀKx / xᵀM x`, and for each `x` the ratio is monotonic in
+    /// `cos θ2` (its denominator is linear in it and positive), so its largest value over
+    /// `[−1, 1]` is at an end (checked against a scan of 361 poses, `core/tests/model.rs`). The
+    /// sampled loop `ṽ ← (1 − λT) ṽ` diverges for `λT > 2`; the gains keep `λT ≤ 1`
     /// (`crate::params::Gains::default_for`, `crate::tuning`).
     pub fn velocity_loop_rate(&self, kp: Vector2<T>) -> T {
-        let mut worst = T::zero();
-        for k in 0..=16u8 {
-            let theta2 = T::c(f64::from(k) * core::f64::consts::PI / 16.0);
-            let t = self.terms(&Vector4::new(T::zero(), theta2, T::zero(), T::zero()));
+        let at = |c2: T| {
+            let h = self.a1_s2 * c2;
+            let (m11, m12, m22) = (
+                self.a_const + self.j_const + h + h,
+                self.j_const + h,
+                self.j_const,
+            );
             // det(K − λ M) = 0: det(M) λ² − (k1 m22 + k2 m11) λ + k1 k2 = 0, the larger root.
-            let a = t.b11 * t.b22 - t.b12 * t.b12;
-            let b = kp.x * t.b22 + kp.y * t.b11;
-            let c = kp.x * kp.y;
-            let disc = b * b - T::c(4.0) * a * c;
+            let a = m11 * m22 - m12 * m12;
+            let b = kp.x * m22 + kp.y * m11;
+            let disc = b * b - T::c(4.0) * a * (kp.x * kp.y);
             let disc = if disc > T::zero() { disc } else { T::zero() };
-            let rate = (b + disc.lsqrt()) / (T::c(2.0) * a);
-            if rate > worst {
-                worst = rate;
-            }
-        }
-        worst
+            (b + disc.lsqrt()) / (T::c(2.0) * a)
+        };
+        let (lo, hi) = (at(-T::one()), at(T::one()));
+        if lo > hi { lo } else { hi }
     }
 
     /// The configuration-dependent terms of `B(q)` and `∂B/∂q`, computed once per step.

@@ -8,6 +8,11 @@ pub mod clocks;
 #[cfg(feature = "hw")]
 #[allow(unsafe_code)]
 pub mod hw;
+#[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
+pub mod pll;
+#[cfg(feature = "hw")]
+#[allow(unsafe_code)]
+mod pre_init;
 #[cfg(feature = "qemu")]
 pub mod sim;
 

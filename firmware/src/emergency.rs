@@ -8,10 +8,12 @@
 //! fed, resets the chip within its timeout, and the firmware boots with the amplifiers disabled
 //! and [`flexarm_core::Fault::Watchdog`] latched; under QEMU it exits through semihosting.
 //!
-//! `init` calls [`force_safe_outputs`] before anything else too, so the enable line is driven
-//! low within microseconds of every reset (an external pull-down holds it there before that:
-//! `docs/firmware.md`). `scripts/fw-elf-check` checks in the built hardware ELF that every
-//! handler and `init` call it first.
+//! On the hardware board the reset handler drives the same outputs safe before RAM is
+//! initialized (`board::pre_init`), and `init` calls [`force_safe_outputs`] before anything
+//! else too (an external pull-down holds the enable low while the chip is in reset:
+//! `docs/firmware.md`). `scripts/fw-elf-check` checks in the built hardware ELF that the reset
+//! handler calls `__pre_init` first and that every handler and `init` call
+//! [`force_safe_outputs`] first.
 
 use core::sync::atomic::{Ordering::SeqCst, compiler_fence};
 

@@ -145,14 +145,25 @@ mod app {
         recorder: FaultRecorder = FaultRecorder::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
+        let dp = cx.device;
+        // The mutation scripts/fw-elf-check must reject: the clock start-up first.
+        #[cfg(feature = "mutant-clocks-first")]
+        let startup = crate::board::clocks::start(&mut crate::board::clocks::Chip {
+            rcc: &dp.RCC,
+            flash: &dp.FLASH,
+        });
         // Before anything else (the crystal wait included): amplifiers disabled, commands safe.
         crate::emergency::force_safe_outputs();
-        let dp = cx.device;
         // The crystal, the PLL and the reset cause. The QEMU board models no RCC and runs at
-        // the timers' fixed rate; its `inject-no-crystal` build runs the start-up there to
-        // take the path of a crystal that never starts.
-        #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
-        let startup = crate::board::clocks::start(&dp.RCC, &dp.FLASH);
+        // the timers' fixed rate; its `inject-no-crystal` build runs the start-up on a model of
+        // an RCC whose crystal never starts.
+        #[cfg(all(feature = "hw", not(feature = "mutant-clocks-first")))]
+        let startup = crate::board::clocks::start(&mut crate::board::clocks::Chip {
+            rcc: &dp.RCC,
+            flash: &dp.FLASH,
+        });
+        #[cfg(feature = "inject-no-crystal")]
+        let startup = crate::board::sim::start_on_dead_crystal();
 
         // Timers: TIM2 piezo, TIM3 motor, TIM4 supervisor, TIM5 free-running clock.
         dp.RCC.apb1enr().modify(|_, w| {
@@ -184,8 +195,12 @@ mod app {
         // The first cause is kept: a clock failure explains a watchdog reset, not the reverse.
         #[cfg(any(feature = "hw", feature = "inject-no-crystal"))]
         {
-            if startup.clocks.is_err() {
+            if startup.source != crate::board::clocks::Source::Crystal {
                 ctrl.trip(Fault::Clock);
+                defmt::error!(
+                    "clock: {=str}; the amplifiers stay off",
+                    startup.source.as_str()
+                );
             }
             if !startup.brown_out_reset_on {
                 ctrl.trip(Fault::BrownOutDisabled);
@@ -216,15 +231,30 @@ mod app {
             defmt::error!("starting in the safe state: {=str}", f.as_str());
         }
 
+        // The watchdog's timeout fits the supervisor's period on the clock that runs.
         #[cfg(feature = "hw")]
-        let iwdg = crate::board::hw::start_watchdog(dp.IWDG);
+        let iwdg = {
+            let supervisor_us = u64::from(TIMER_CLOCK_HZ / SUPERVISOR_HZ) * 1_000_000
+                / u64::from(startup.source.timer_clock_hz());
+            if !crate::board::hw::start_watchdog(&dp.IWDG, supervisor_us) {
+                defmt::warn!("watchdog: PVU/RVU did not clear; its first timeout may be 4 s");
+            }
+            dp.IWDG
+        };
 
         // Piezo first, then motor, then supervisor: at common instants the update events come in
         // that order, so the motor loop sees the plant the piezo loop just advanced.
-        periodic!(dp.TIM2, TIMER_CLOCK_HZ / PIEZO_HZ, 1u32);
-        // TIM2's update event is also the film ADC's trigger (CR2 MMS = 0b010: TRGO = update).
+        // TIM2's update event is also the film ADC's trigger (CR2 MMS = 0b010: TRGO = update),
+        // set before the timer generates its first update event (RM0090, TIMx_CR2: the master
+        // mode first).
         #[cfg(feature = "hw")]
         dp.TIM2.cr2().write(|w| w.mms().update());
+        periodic!(dp.TIM2, TIMER_CLOCK_HZ / PIEZO_HZ, 1u32);
+        // That first update event (EGR UG) started a conversion too: read it now, so that the
+        // first piezo period does not take it for its own (and every later one the previous
+        // period's).
+        #[cfg(feature = "hw")]
+        let _ = board.film_voltage();
         // The QEMU board's motor loop runs every tenth piezo period, started by the piezo loop
         // (`piezo_loop`): QEMU's timers drift against each other (its TIM2 comes 3 % late), and
         // on one clock the plant, both loops and the host's rig keep the same time.
@@ -388,6 +418,15 @@ mod app {
     fn serve(cx: &mut idle::Context, request: flexarm_link::Request) {
         use crate::link;
         use rtic::mutex::prelude::*;
+        // A retried request (its reply was lost) gets the first answer, not applied again.
+        if let Some(reply) = cx.local.session.repeated(&request) {
+            let reply = flexarm_link::msg::DeviceMsgRef::Reply {
+                id: request.id,
+                reply: &reply,
+            };
+            link::send(cx.local.serial, &reply);
+            return;
+        }
         let sensed = cx.shared.board.lock(period::sense);
         let load = |s: &stats::TaskStats| flexarm_link::msg::Load {
             mean_cycles: s.mean(),
@@ -413,29 +452,22 @@ mod app {
             cx.shared.board.lock(|b| b.inject_amplifier_fault(on));
         }
         let session = &mut cx.local.session;
-        // A retried request (its reply was lost) gets the first answer, not applied again.
-        let reply = match session.repeated(&request) {
-            Some(reply) => reply,
-            None => {
-                let kind = session::Kind::of(&request.command);
-                let reply = match request.command {
-                    flexarm_link::Command::Move(m) => session::start_move(
-                        m,
-                        &mut cx.shared.control,
-                        &mut cx.shared.drive,
-                        cx.local.snapshot,
-                    ),
-                    command => (
-                        &mut cx.shared.control,
-                        &mut cx.shared.drive,
-                        &mut cx.shared.recorder,
-                    )
-                        .lock(|c, d, r| session.answer(command, c, d, r, &io)),
-                };
-                session.remember(request.id, kind, &reply);
-                reply
-            }
+        let kind = session::Kind::of(&request.command);
+        let reply = match request.command {
+            flexarm_link::Command::Move(m) => session::start_move(
+                m,
+                &mut cx.shared.control,
+                &mut cx.shared.drive,
+                cx.local.snapshot,
+            ),
+            command => (
+                &mut cx.shared.control,
+                &mut cx.shared.drive,
+                &mut cx.shared.recorder,
+            )
+                .lock(|c, d, r| session.answer(command, c, d, r, &io)),
         };
+        session.remember(request.id, kind, &reply);
         link::send(
             cx.local.serial,
             &flexarm_link::msg::DeviceMsgRef::Reply {

@@ -118,6 +118,16 @@ pub fn judge(c: &RunCheck, fault: Option<Fault>, enabled: bool) -> bool {
             defmt::error!("FAIL: clock fault latched, but the amplifiers were enabled");
             false
         }
+        // On a dead crystal the chip must still reach 168 MHz, from its internal oscillator.
+        #[cfg(feature = "inject-no-crystal")]
+        (Some(Fault::Clock), Some(Fault::Clock))
+            if !crate::board::sim::ON_INTERNAL_PLL.load(core::sync::atomic::Ordering::Relaxed) =>
+        {
+            defmt::error!(
+                "FAIL: clock fault latched, but the start-up did not run the PLL from the internal oscillator at 168 MHz"
+            );
+            false
+        }
         (Some(want), Some(got)) if want == got && !enabled => {
             defmt::info!(
                 "PASS: injected fault latched as {=str}; outputs held safe",

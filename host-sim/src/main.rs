@@ -107,7 +107,7 @@ enum Command {
         /// `model`: the inertia experiment's record (`flexarm identify inertia`).
         #[arg(long)]
         inertia_record: Option<PathBuf>,
-        /// Fit this recording instead of running the experiment (`modes`, `inertia`, `decay`): a trace
+        /// Fit this recording instead of running the experiment (`friction`, `modes`, `inertia`, `decay`): a trace
         /// CSV (a run's, or a board's `flexarm record`), evenly sampled.
         #[arg(long)]
         record: Option<PathBuf>,
@@ -565,14 +565,15 @@ fn main_result(cli: Cli) -> Result<()> {
                 ("family", None) => {
                     use flexarm_sim::identify::family::{self, Kind};
                     use rayon::prelude::*;
-                    let kinds = [Kind::ChirpNoise, Kind::Random, Kind::ChirpLog];
+                    let kinds = Kind::ALL;
                     let results: Vec<_> = family::family()
                         .par_iter()
                         .map(|arm| family::identify_arm(arm, &kinds, dir.staging(), false))
                         .collect::<Result<_>>()?;
                     let text = format!(
-                        "# The family\n\nEach arm of `flexarm_sim::identify::family` recorded by `flexarm_sim::lab` (a PD hold, the kinds below, sized to {} of the film's range), written and read back as a trace, fitted by `cargo sim identify`'s code (`cargo sim identify family`).\n\n{}",
+                        "# The family\n\nEach arm of `flexarm_sim::identify::family` recorded by `flexarm_sim::lab` (a PD hold, the kinds below, sized to {} of the film's range), written and read back as a trace, fitted by `cargo sim identify`'s code (`cargo sim identify family`).\n\n## Per kind of record\n\n{}\n## Per arm\n\n{}",
                         family::FILM_SHARE,
+                        family::summary(&results),
                         family::report(&results)
                     );
                     std::fs::write(dir.staging().join("family.md"), &text)
@@ -598,12 +599,9 @@ fn main_result(cli: Cli) -> Result<()> {
                         .collect();
                     workflow::decay_step(&b, r.as_deref(), &models)?.1
                 }
-                ("friction", Some(_)) => {
-                    return Err("--record: the friction experiment's recordings are its moves; run it (or `flexarm identify friction` on a board)".into());
-                }
-                ("friction", None) => workflow::friction_step(&b, &speeds, cruise)?,
+                ("friction", r) => workflow::friction_step(&b, r.as_deref(), &speeds, cruise)?,
                 (_, Some(_)) => {
-                    return Err("--record: `all` runs every experiment itself; fit a recording with `modes`, `inertia` or `decay`".into());
+                    return Err("--record: `all` runs every experiment itself; fit a recording with `friction`, `modes`, `inertia` or `decay`".into());
                 }
                 _ => workflow::all(&b, nominal, seconds)?,
             };

@@ -22,13 +22,60 @@ fn truth() -> (SimConfig, TruthSpec) {
     (cfg, spec)
 }
 
-/// Within 10 % of the truth plant's friction (the bound), both joints.
+/// Within 10 % of the truth plant's friction (the bound), both joints; the same from
+/// the experiment's record alone (`identify friction --record`: the cruises found in it),
+/// which must find the experiment's 16 cruises, in its order,, each within 2 % of its speed and 5 mN·m of its torque (the windows
+/// differ by up to the speed estimate's half-width, 0.25 s, of a 2 s cruise).
 #[test]
 fn friction_is_recovered_within_ten_percent() {
     let (cfg, spec) = truth();
-    let cruises =
+    let (cruises, record) =
         friction_experiment(&cfg, Vector2::new(-1.2, -1.2), &[0.1, 0.2, 0.3, 0.5], 2.0).unwrap();
     assert_eq!(cruises.len(), 16);
+    let found = flexarm_sim::identify::find_cruises(&record).unwrap();
+    assert_eq!(found.len(), 16);
+    for (c, f) in cruises.iter().zip(&found) {
+        println!(
+            "joint {}: {:+.4} rad/s {:+.5} N·m, found {:+.4} rad/s {:+.5} N·m",
+            c.joint + 1,
+            c.speed,
+            c.torque,
+            f.speed,
+            f.torque
+        );
+        assert_eq!(c.joint, f.joint);
+        assert!((f.speed / c.speed - 1.0).abs() < 0.02, "{c:?} {f:?}");
+        assert!((f.torque - c.torque).abs() < 2e-3, "{c:?} {f:?}");
+    }
+    let refit = flexarm_sim::identify::fit_joints(&found).unwrap();
+    for (joint, f) in refit.iter().enumerate() {
+        let m = spec.motors[joint];
+        let (ec, ev) = (f.coulomb / m.coulomb - 1.0, f.viscous / m.viscous - 1.0);
+        println!(
+            "joint {} from the record: F_c {:+.1} %, F_v {:+.1} %",
+            joint + 1,
+            ec * 100.0,
+            ev * 100.0
+        );
+        assert!(ec.abs() < 0.1 && ev.abs() < 0.1, "joint {}", joint + 1);
+    }
+    // A record without cruises (the joints held) is refused with the gate.
+    let held: Vec<_> = record[..3000]
+        .iter()
+        .map(|s| flexarm_sim::sim::Sample {
+            x: flexarm_sim::plant::State {
+                q: nalgebra::Vector4::new(-1.2, -1.2, 0.0, 0.0),
+                ..s.x
+            },
+            ..*s
+        })
+        .collect();
+    let e = flexarm_sim::identify::find_cruises(&held).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("gate `excitation`: joint 1 has no cruise"),
+        "{e}"
+    );
     for joint in 0..2 {
         let mine: Vec<Cruise> = cruises
             .iter()
@@ -119,7 +166,7 @@ fn no_friction_is_found_where_there_is_none() {
         sensors: Sensors::realistic(),
         ..SimConfig::default()
     };
-    let cruises =
+    let (cruises, _) =
         friction_experiment(&cfg, Vector2::new(-1.2, -1.2), &[0.1, 0.2, 0.3, 0.5], 2.0).unwrap();
     let fits = flexarm_sim::identify::fit_joints(&cruises).unwrap();
     let drive = TruthSpec::default().motors[0];

@@ -260,3 +260,100 @@ fn bad_records_are_refused_with_the_gate() {
         "{m}"
     );
 }
+
+/// The decay fit on the lab's tap records of every arm (`Kind::PatchTaps`, `TorqueTaps`,
+/// `HammerTaps`: five taps 20 s apart, 20 ms wide but the hammer's): each record's taps found
+/// as what made them, counted, spaced and sized as the record holds them. What rings is the
+/// held arm (the link coupled with the lab's PD): its first mode shares itself with the
+/// hold's (near 2 Hz) and is not the clamped link's, but the modes above it are the link's
+/// (the hub's inertia clamps the link there): every mode found from three quarters of the
+/// truth's second mode up is one of the truth's, within the 0.5 % in frequency
+/// (0.40 % at most on this family).
+/// A hammer's strikes reach every one of those modes inside the band and find their damping
+/// within the 15 % (3.7 % at most). The modes fit of the same records refuses with a
+/// gate or lists only the arm's modes (within 1 %; the held arm's first mode aside).
+#[test]
+fn decays_of_every_tap() {
+    use flexarm_sim::identify::decay::{DecaySettings, Tapper, fit_decay};
+    use flexarm_sim::identify::family::{HELD_BELOW, lab_record};
+    use flexarm_sim::identify::modal::{FitSettings, fit_modes};
+    use flexarm_sim::identify::record::ModesRecord;
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let set = DecaySettings::default();
+    for arm in family() {
+        let bench = arm.bench().unwrap();
+        let g = arm.geometry().unwrap();
+        let truth = arm.modes().unwrap();
+        for (kind, tapper) in [
+            (Kind::PatchTaps, Tapper::Patch),
+            (Kind::TorqueTaps, Tapper::Motor(1)),
+            (Kind::HammerTaps, Tapper::Hammer),
+        ] {
+            let name = format!("{} {}", arm.name, kind.name());
+            let trace =
+                lab_record(dir, (arm.name, kind.name()), &kind.plan(&bench), false).unwrap();
+            let rec = ModesRecord::from_trace(&trace, g.film_range, g.amplifier_window).unwrap();
+            // The modes fit of a tap record refuses with a gate or lists the arm's modes only
+            // (a held arm's first mode aside): never a resonance the arm does not have.
+            match fit_modes(&rec, &FitSettings::default()) {
+                Ok(m) => {
+                    for x in &m.all {
+                        let (_, t) = nearest(&truth, x.hz()).unwrap();
+                        let first_held = m.held.is_some() && x.hz() < HELD_BELOW * truth[1].hz;
+                        assert!(
+                            first_held || (x.hz() / t.hz - 1.0).abs() < 0.01,
+                            "{name}: modes fit: {} Hz",
+                            x.hz()
+                        );
+                    }
+                }
+                Err(e) => assert!(e.to_string().contains("gate `"), "{name}: {e}"),
+            }
+            let f = match fit_decay(&rec, &set) {
+                Ok(f) => f,
+                // The patch elsewhere sees its second mode too weakly in a patch tap's decay.
+                Err(e) if (arm.name, kind) == ("patch", Kind::PatchTaps) => {
+                    println!("{name}: {e}");
+                    assert!(e.to_string().contains("mode 2 not seen"), "{e}");
+                    continue;
+                }
+                Err(e) => panic!("{name}: {e}"),
+            };
+            println!("{name}: {}", f.held);
+            let h = f.held;
+            assert_eq!(h.tapper, tapper, "{name}");
+            assert_eq!((h.count, f.taps), (5, 5), "{name}");
+            assert!((h.spacing - 20.0).abs() < 0.01, "{name}: {}", h.spacing);
+            if tapper != Tapper::Hammer {
+                assert!((h.width - 0.02).abs() < 0.0025, "{name}: {}", h.width);
+            }
+            let mut found = Vec::new();
+            for m in &f.modes {
+                let hz = m.omega / std::f64::consts::TAU;
+                let (j, t) = nearest(&truth, hz).unwrap();
+                let e = (hz / t.hz - 1.0, m.zeta / t.zeta - 1.0);
+                println!(
+                    "  {hz:.4} Hz, ζ {:.4}: the truth's mode {j} {:+.2} %, ζ {:+.1} %",
+                    m.zeta,
+                    e.0 * 100.0,
+                    e.1 * 100.0
+                );
+                // Below the link's second mode the held first mode and the hold's ring.
+                if hz >= HELD_BELOW * truth[1].hz {
+                    assert!(j >= 2 && e.0.abs() < 0.005, "{name}: mode {j}: {e:?}");
+                    if tapper == Tapper::Hammer {
+                        assert!(e.1.abs() < 0.15, "{name}: mode {j}: {e:?}");
+                    }
+                    found.push(j);
+                }
+            }
+            if tapper == Tapper::Hammer {
+                let inside = truth[1..]
+                    .iter()
+                    .filter(|t| t.hz >= set.band.0 && t.hz <= set.band.1)
+                    .count();
+                assert_eq!(found, (2..2 + inside).collect::<Vec<_>>(), "{name}");
+            }
+        }
+    }
+}

@@ -50,6 +50,8 @@ const FILM_RANGE: f32 = 10.0;
 /// TIM12 input clock (APB1 timers) [Hz] and PWM rate [Hz].
 const TIM12_CLOCK_HZ: u32 = 84_000_000;
 const PWM_HZ: u32 = 20_000;
+/// The PWM period in TIM12 counts (ARR + 1), set by `super::pre_init`.
+pub const PWM_PERIOD: u32 = TIM12_CLOCK_HZ / PWM_HZ;
 
 /// Read-modify-write of the bits under `mask`.
 macro_rules! set_bits {
@@ -59,16 +61,41 @@ macro_rules! set_bits {
     };
 }
 
-/// Starts the independent watchdog: LSI 32 kHz / 32, reload 500, a timeout of 0.5 s (0.34 s
-/// to 0.94 s across the LSI's 17–47 kHz). The counter starts at 0xFFF (4 s), so the reload is
-/// written once right after the start: the first timeout is the configured one too.
-pub fn start_watchdog(iwdg: IWDG) -> IWDG {
-    iwdg.kr().write(|w| w.key().unlock()); // unlock PR and RLR
-    iwdg.pr().write(|w| w.pr().set(0b011)); // /32
-    iwdg.rlr().write(|w| w.rl().set(500));
-    iwdg.kr().write(|w| w.key().start()); // start
-    iwdg.kr().write(|w| w.key().feed()); // load RLR now, not 0xFFF
-    iwdg
+/// The watchdog's reload value: a timeout of `IWDG_RELOAD · divider / f_LSI`.
+const IWDG_RELOAD: u16 = 500;
+/// The LSI's fastest (datasheet: 17 to 47 kHz, 32 kHz typical) [Hz]: the shortest timeout.
+const LSI_MAX_HZ: u64 = 47_000;
+/// Polls of the watchdog's status bits: the LSI's start (at most 40 µs) and 5 of its periods
+/// (294 µs at 17 kHz), with a poll of 5 to 10 cycles, are 56 000 cycles at 168 MHz at most.
+const IWDG_POLLS: u32 = 40_000;
+
+/// The watchdog's prescaler code (divider `4 · 2^PR`) whose timeout is, even on the fastest
+/// LSI, at least twice the supervisor's period `supervisor_us` [µs] (the supervisor feeds it):
+/// 3 (/32, 0.5 s; 0.34 to 0.94 s across the LSI's range) for the 0.1 s period at 168 MHz, 5
+/// (/128, 2 s; 1.36 to 3.76 s) for the 0.525 s the supervisor's timer gives at 16 MHz.
+pub const fn watchdog_prescaler(supervisor_us: u64) -> u8 {
+    let mut pr = 0;
+    while pr < 6 && (4 << pr) * IWDG_RELOAD as u64 * 1_000_000 / LSI_MAX_HZ < 2 * supervisor_us {
+        pr += 1;
+    }
+    pr
+}
+
+/// Starts the independent watchdog with a timeout that fits the supervisor's period
+/// ([`watchdog_prescaler`]). RM0090, IWDG: the start (KR = 0xCCCC) turns the LSI on and counts
+/// from 0xFFF; PR and RLR are written after the unlock (0x5555) and reach the LSI's domain
+/// within 5 of its periods, shown by the status bits PVU and RVU; the first reload (0xAAAA)
+/// waits for them to clear, or it would load the old value (0xFFF: 4 s at /32). `false` if
+/// they did not clear within the bounded wait (the first timeout may then be longer).
+pub fn start_watchdog(iwdg: &IWDG, supervisor_us: u64) -> bool {
+    iwdg.kr().write(|w| w.key().start());
+    iwdg.kr().write(|w| w.key().unlock());
+    iwdg.pr()
+        .write(|w| w.pr().set(watchdog_prescaler(supervisor_us)));
+    iwdg.rlr().write(|w| w.rl().set(IWDG_RELOAD));
+    let updated = (0..IWDG_POLLS).any(|_| iwdg.sr().read().bits() & 0b11 == 0);
+    iwdg.kr().write(|w| w.key().feed());
+    updated
 }
 
 /// Reloads the watchdog counter.
@@ -148,41 +175,21 @@ impl HwBoard {
         dac: DAC,
         rcc: &RCC,
     ) -> Self {
-        // Clocks: GPIOA/B/C (AHB1ENR bits 0–2); TIM12, DAC (APB1ENR bits 6, 29);
-        // TIM1, TIM8, ADC1 (APB2ENR bits 0, 1, 8).
+        // Clocks: GPIOA/B/C (AHB1ENR bits 0–2); TIM1, TIM8, ADC1 (APB2ENR bits 0, 1, 8). TIM12
+        // and the DAC are already on and at their safe outputs, PB12 low, PA4 analog, PB14/PB15
+        // on TIM12: `super::pre_init`, before RAM was initialized.
         set_bits!(rcc.ahb1enr(), 0x7, 0x7);
-        set_bits!(rcc.apb1enr(), (1 << 6) | (1 << 29), (1 << 6) | (1 << 29));
         set_bits!(
             rcc.apb2enr(),
             1 | (1 << 1) | (1 << 8),
             1 | (1 << 1) | (1 << 8)
         );
 
-        // Motor PWM on TIM12, configured completely (50 % = zero torque, an update event loads
-        // the preloaded values) before its pins are handed to it below.
-        let pwm_period = TIM12_CLOCK_HZ / PWM_HZ;
-        set_bits!(tim12.arr(), 0xFFFF, pwm_period - 1);
-        set_bits!(
-            tim12.ccmr1_output(),
-            0x7878,
-            (0b110 << 4) | (1 << 3) | (0b110 << 12) | (1 << 11)
-        );
-        set_bits!(tim12.ccr1(), 0xFFFF, pwm_period / 2);
-        set_bits!(tim12.ccr2(), 0xFFFF, pwm_period / 2);
-        tim12.egr().write(|w| w.ug().set_bit()); // load ARR, CCR1, CCR2 from their preloads
-        set_bits!(tim12.ccer(), 0x11, 0x11);
-        set_bits!(tim12.cr1(), 0x81, 0x81);
-
-        // DAC channel 1: mid-scale (0 V at the piezo) written before the channel is enabled,
-        // output buffer on (its swing is what limits the voltage: docs/firmware.md).
-        set_bits!(dac.dhr12r1(), 0xFFF, u32::from(DAC_MID));
-        set_bits!(dac.cr(), 0x3, 0x1);
-
-        // GPIOA: PA0 analog (ADC), PA4 analog (DAC), PA8/PA9 AF1 (TIM1).
+        // GPIOA: PA0 analog (ADC), PA8/PA9 AF1 (TIM1).
         set_bits!(
             gpioa.moder(),
-            3 | (3 << 8) | (3 << 16) | (3 << 18),
-            3 | (3 << 8) | (2 << 16) | (2 << 18)
+            3 | (3 << 16) | (3 << 18),
+            3 | (2 << 16) | (2 << 18)
         );
         set_bits!(gpioa.afrh(), 0xFF, 0x11);
         // Encoder inputs pulled up (PUPDR = 0b01): open-collector encoders need it, line
@@ -192,12 +199,9 @@ impl HwBoard {
         set_bits!(gpioc.moder(), (3 << 12) | (3 << 14), (2 << 12) | (2 << 14));
         set_bits!(gpioc.afrl(), 0xFF << 24, 0x33 << 24);
         set_bits!(gpioc.pupdr(), (3 << 12) | (3 << 14), (1 << 12) | (1 << 14));
-        // GPIOB: PB12 output (enable, already low: `emergency::force_safe_outputs` in `init`),
-        // PB13 input with pull-up, PB14/PB15 AF9 (TIM12, already running at 50 %).
-        // SAFETY: BSRR bit 28 resets PB12.
-        gpiob.bsrr().write(|w| unsafe { w.bits(1 << 28) });
-        set_bits!(gpiob.afrh(), 0xFF << 24, 0x99 << 24);
-        set_bits!(gpiob.moder(), 0xFF << 24, (1 << 24) | (2 << 28) | (2 << 30));
+        // GPIOB: PB13 input (MODER 0b00, its reset value) with pull-up; PB12 (the enable, an
+        // output driven low) and PB14/PB15 (TIM12) are `super::pre_init`'s.
+        set_bits!(gpiob.moder(), 3 << 26, 0);
         set_bits!(gpiob.pupdr(), 3 << 26, 1 << 26);
         // PB6/PB7 AF7: USART1 TX/RX, the command link (`crate::link`); RX pulled up so an
         // unplugged cable reads idle.
@@ -243,6 +247,7 @@ impl HwBoard {
         set_bits!(adc.cr2(), 1, 1);
 
         let limits = Limits::<f32>::default();
+        let pwm_period = PWM_PERIOD;
         let raw = [
             tim1.cnt().read().bits() as u16,
             tim8.cnt().read().bits() as u16,

@@ -224,3 +224,94 @@ impl Board for SimBoard {
         self.step_plant();
     }
 }
+
+/// A model of the RCC and flash interface with a crystal that never starts, for the QEMU
+/// `inject-no-crystal` run (QEMU models no RCC: its registers read 0, so no oscillator, the
+/// internal one included, would ever report ready). The internal oscillator runs; the PLL locks
+/// when it is fed from it (PLLSRC = HSI) and never from the dead crystal; the system clock
+/// switch follows SW to a source that is ready. The option bytes have brown-out level 3, as a
+/// commissioned board's.
+#[cfg(feature = "inject-no-crystal")]
+struct DeadCrystal {
+    regs: [u32; 6],
+}
+
+#[cfg(feature = "inject-no-crystal")]
+impl DeadCrystal {
+    /// The registers at reset (RM0090): CR HSION | HSIRDY | HSITRIM = 16, PLLCFGR 0x24003010,
+    /// CSR with the pin and power-on reset flags, OPTCR with BOR_LEV = 0b00 (level 3).
+    const fn new() -> Self {
+        Self {
+            regs: [0x0000_0083, 0x2400_3010, 0, 0x0C00_0000, 0, 0x0FFF_AAE1],
+        }
+    }
+
+    /// 168 MHz from the internal oscillator, as the model's registers were left: PLL on and
+    /// locked, fed from HSI with `pll`'s dividers, the system clock switched to it, 5 flash
+    /// wait states, the crystal off.
+    fn on_internal_pll(&self, pll: super::pll::Pll) -> bool {
+        use super::clocks::Reg;
+        let [cr, pllcfgr, cfgr, acr] = [Reg::RccCr, Reg::RccPllcfgr, Reg::RccCfgr, Reg::FlashAcr]
+            .map(|r| super::clocks::Regs::read(self, r));
+        cr & (1 << 25) != 0
+            && cr & (1 << 16) == 0
+            && pllcfgr & 0x0F43_7FFF == pll.pllcfgr()
+            && (cfgr >> 2) & 0b11 == 0b10
+            && acr & 0xF == 5
+    }
+}
+
+#[cfg(feature = "inject-no-crystal")]
+impl super::clocks::Regs for DeadCrystal {
+    fn read(&self, reg: super::clocks::Reg) -> u32 {
+        self.regs[reg as usize]
+    }
+    fn write(&mut self, reg: super::clocks::Reg, value: u32) {
+        use super::clocks::Reg;
+        let v = match reg {
+            Reg::RccCr => {
+                // HSIRDY follows HSION, HSERDY never sets, PLLRDY follows PLLON from HSI.
+                let hsi = value & 1;
+                let pll_from_hsi = self.regs[Reg::RccPllcfgr as usize] & (1 << 22) == 0;
+                let pll = u32::from(value & (1 << 24) != 0 && pll_from_hsi);
+                (value & !((1 << 1) | (1 << 17) | (1 << 25))) | (hsi << 1) | (pll << 25)
+            }
+            Reg::RccCfgr => {
+                // SWS (bits 2–3) follows SW (bits 0–1) to a ready source.
+                let cr = self.regs[Reg::RccCr as usize];
+                let sw = value & 0b11;
+                let ready = match sw {
+                    0b00 => true,
+                    0b01 => cr & (1 << 17) != 0,
+                    _ => cr & (1 << 25) != 0,
+                };
+                let sws = if ready {
+                    sw
+                } else {
+                    (self.regs[reg as usize] >> 2) & 0b11
+                };
+                (value & !0b1100) | (sws << 2)
+            }
+            // RMVF clears the reset flags.
+            Reg::RccCsr if value & (1 << 24) != 0 => value & 0x00FF_FFFF,
+            _ => value,
+        };
+        self.regs[reg as usize] = v;
+    }
+}
+
+/// Whether the `inject-no-crystal` run's start-up left its model at 168 MHz from the internal
+/// oscillator (`verdict::judge` requires it).
+#[cfg(feature = "inject-no-crystal")]
+pub static ON_INTERNAL_PLL: AtomicBool = AtomicBool::new(false);
+
+/// The clock start-up on [`DeadCrystal`]: what it reports, and what it left in the model's
+/// registers ([`ON_INTERNAL_PLL`]).
+#[cfg(feature = "inject-no-crystal")]
+pub fn start_on_dead_crystal() -> super::clocks::Startup {
+    let mut rcc = DeadCrystal::new();
+    let startup = super::clocks::start(&mut rcc);
+    let pll = super::pll::expect(super::pll::pll_for(super::pll::HSI_HZ));
+    ON_INTERNAL_PLL.store(rcc.on_internal_pll(pll), Relaxed);
+    startup
+}

@@ -18,6 +18,13 @@
 //! built from a model predicts the decay ([`predict`]), and the identified model must predict
 //! what the arm does.
 //!
+//! ## The taps a record holds
+//! A record's taps are found in it, whatever made them ([`Tapper`]): pulses of the patch's
+//! command `v_a`; else torque pulses of a motor on top of the hold's torque (`tau1`, `tau2`),
+//! which start with the film at rest; else the film's own onsets, where it starts to ring
+//! after a second at rest (a hammer's strikes, which no channel records). The report says
+//! which, how many, how wide, how far apart and how strong, as the record holds them.
+//!
 //! ## The fit
 //! The film's decays after the taps, each sign-corrected, are averaged (noise falls as the
 //! square root of their number); above 150 Hz of sampling the record is low-passed first (a
@@ -27,7 +34,7 @@
 //! poles `z_i` the eigenvalues of `V₁⁺ V₂` (`V` without its last and its first row), the
 //! amplitudes by least squares. A mode is a pole pair in the band with `0 < ζ < 1` whose
 //! amplitude is at least 5 % of the largest; the film amplifier's high-pass shows as a real
-//! pole.
+//! pole. Every mode found is reported, ascending, with its amplitude.
 
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::PiezoPatch;
@@ -38,7 +45,7 @@ use rustfft::num_complex::Complex64;
 
 use super::IdentifyError;
 use super::modes::Excitation;
-use super::record::ModesRecord;
+use super::record::{MAX_TAP as MAX_RECORDED_TAP, ModesRecord, Pulse};
 use crate::sim::{Sample, SimConfig};
 
 /// The experiment's settings.
@@ -73,11 +80,6 @@ impl Default for DecayPlan {
 const LEAD: f64 = 0.5;
 /// The longest tap a plan asks [s].
 const MAX_TAP: f64 = 0.5;
-/// The longest pulse a record's fit takes for a tap [s]: a board's link times the taps, and
-/// stretches them (0.3 to 0.51 s for the plan's 20 ms under QEMU, whose clock outruns the
-/// host's); a longer pulse is a step (a modes record's blocks last 5 s), and the link's
-/// response to it is forced.
-const MAX_RECORDED_TAP: f64 = 1.0;
 
 impl DecayPlan {
     /// Length of the record [s].
@@ -170,6 +172,8 @@ pub struct DecayFit {
     pub decay: Vec<f64>,
     /// The pencil's reconstruction of it [V].
     pub fitted: Vec<f64>,
+    /// The taps the record held.
+    pub held: Taps,
 }
 
 impl DecayFit {
@@ -199,24 +203,12 @@ const ARTEFACT_SHARE: f64 = 0.05;
 /// at most 40 Hz by default: a third of this rate keeps it clear of the decimated Nyquist).
 const DECIMATE_ABOVE: f64 = 150.0;
 
-/// Fits the film's decays after the taps in `rec` (its `v_a` shows the taps, its `v_f` the
-/// decays).
+/// Fits the film's decays (`v_f`) after the taps in `rec`: the patch's, a motor's or a
+/// hammer's (module docs).
 pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, IdentifyError> {
     super::record::check_channels(rec)?;
     let bad = |m: String| Err(IdentifyError::Data(m));
-    let taps = taps(&rec.v_a);
-    if taps.is_empty() {
-        return bad(
-            "no tap in `v_a`: the patch's command never returns to 0 V after a pulse (a decay experiment's record has its taps)"
-                .into(),
-        );
-    }
-    let longest = taps.iter().map(|t| t.end - t.start).max().unwrap_or(0) as f64 * rec.dt;
-    if longest > MAX_RECORDED_TAP {
-        return bad(format!(
-            "no tap in `v_a`: its pulses last up to {longest:.2} s, a tap at most {MAX_RECORDED_TAP} s (is this a decay experiment's record?)"
-        ));
-    }
+    let (held, taps) = find_taps(rec)?;
     // The low-pass and decimation, when the record is fast.
     let factor = ((1.0 / rec.dt) / DECIMATE_ABOVE).ceil().max(1.0) as usize;
     let (v_f, delay) = if factor > 1 {
@@ -244,7 +236,7 @@ pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, Ide
     let lowest = set.band.0;
     if (len as f64) * dt < 3.0 / lowest {
         return bad(format!(
-            "decays of {:.2} s: too short for modes down to {lowest} Hz, which need {:.1} s between taps",
+            "gate `record length`: decays of {:.2} s: too short for modes down to {lowest} Hz, which need {:.1} s between taps",
             len as f64 * dt,
             3.0 / lowest
         ));
@@ -259,7 +251,9 @@ pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, Ide
         })
         .collect();
     if decay.iter().all(|v| *v == decay[0]) {
-        return bad("no decay: the film's voltage does not move after the taps".into());
+        return bad(
+            "gate `excitation`: no decay: the film's voltage does not move after the taps".into(),
+        );
     }
     let (poles, amplitudes) = pencil(&decay, set.order)?;
     let fitted: Vec<f64> = (0..len)
@@ -294,7 +288,7 @@ pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, Ide
     if modes.len() < set.modes {
         let k = modes.len() + 1;
         return bad(format!(
-            "mode {k} not seen in the decay: the pencil found {} mode(s) in {}–{} Hz; the taps did not reach mode {k}, or it lies outside the band",
+            "gate `modes`: mode {k} not seen in the decay: the pencil found {} mode(s) in {}–{} Hz; the taps did not reach mode {k}, or it lies outside the band",
             modes.len(),
             set.band.0,
             set.band.1
@@ -306,19 +300,170 @@ pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, Ide
         dt,
         decay,
         fitted,
+        held,
     })
 }
 
-/// A pulse of the patch's command: its first sample, the first sample after it, its sign.
-struct Tap {
-    start: usize,
-    end: usize,
-    sign: f64,
+/// What tapped the arm in a record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tapper {
+    /// Pulses of the patch's command `v_a`.
+    Patch,
+    /// Torque pulses of motor 0 or 1 on top of the hold's torque.
+    Motor(usize),
+    /// Strikes no channel recorded (a hammer's), found where the film starts to ring.
+    Hammer,
+}
+
+impl std::fmt::Display for Tapper {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Tapper::Patch => f.write_str("taps of the patch (its command `v_a`)"),
+            Tapper::Motor(j) => write!(
+                f,
+                "torque pulses on joint {} (`tau{}`, on top of the hold's)",
+                j + 1,
+                j + 1
+            ),
+            Tapper::Hammer => f.write_str(
+                "strikes no channel recorded (a hammer's), found where the film starts to ring",
+            ),
+        }
+    }
+}
+
+/// The taps a record held, as its fit found them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Taps {
+    /// What tapped the arm.
+    pub tapper: Tapper,
+    /// Taps found.
+    pub count: usize,
+    /// The median tap's width [s] (0 for a hammer's strikes).
+    pub width: f64,
+    /// The median time from one tap to the next [s] (NaN for one tap).
+    pub spacing: f64,
+    /// The largest tap's level against the channel's rest [V or N·m] (NaN for a hammer's).
+    pub level: f64,
+}
+
+impl std::fmt::Display for Taps {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} {}", self.count, self.tapper)?;
+        match self.tapper {
+            Tapper::Patch => write!(f, ", up to {:.3} V", self.level)?,
+            Tapper::Motor(_) => write!(f, ", up to {:.3} N·m", self.level)?,
+            Tapper::Hammer => {}
+        }
+        if self.tapper != Tapper::Hammer {
+            write!(f, ", {:.3} s wide", self.width)?;
+        }
+        if self.spacing.is_finite() {
+            write!(f, ", {:.2} s apart", self.spacing)?;
+        }
+        Ok(())
+    }
+}
+
+/// The median of `x` (NaN when empty).
+fn median(mut x: Vec<f64>) -> f64 {
+    x.sort_by(f64::total_cmp);
+    x.get(x.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// Share of the film's largest excursion under which it is at rest when a motor's pulse
+/// starts: a motor's tap comes before the film rings, the hold's reaction to a strike after.
+const FILM_AT_REST: f64 = 0.2;
+
+/// The record's taps and what made them: the patch's pulses (refused when they last longer
+/// than a tap), else a motor's torque pulses that start with the film at rest, else the film's
+/// onsets (a hammer's strikes). Refused (gate `excitation`) when none is found.
+fn find_taps(rec: &ModesRecord) -> Result<(Taps, Vec<Pulse>), IdentifyError> {
+    let summary = |tapper, p: &[Pulse], level: f64| Taps {
+        tapper,
+        count: p.len(),
+        width: median(
+            p.iter()
+                .map(|t| (t.end - t.start) as f64 * rec.dt)
+                .collect(),
+        ),
+        spacing: median(
+            p.windows(2)
+                .map(|w| (w[1].start - w[0].start) as f64 * rec.dt)
+                .collect(),
+        ),
+        level,
+    };
+    let patch = taps(&rec.v_a);
+    if !patch.is_empty() {
+        let longest = patch.iter().map(|t| t.end - t.start).max().unwrap_or(0) as f64 * rec.dt;
+        if longest > MAX_RECORDED_TAP {
+            return Err(IdentifyError::Data(format!(
+                "gate `excitation`: no tap in `v_a`: its pulses last up to {longest:.2} s, a tap at most {MAX_RECORDED_TAP} s (is this a decay experiment's record?)"
+            )));
+        }
+        let level = rec.v_a.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        return Ok((summary(Tapper::Patch, &patch, level), patch));
+    }
+    let film_rest = rec.v_f.first().copied().unwrap_or(0.0);
+    let film_peak = rec
+        .v_f
+        .iter()
+        .map(|v| (v - film_rest).abs())
+        .fold(0.0, f64::max);
+    for j in [1, 0] {
+        let p = super::record::pulses(&rec.tau[j], rec.dt);
+        let before_film =
+            |t: &Pulse| (rec.v_f[t.start] - film_rest).abs() < FILM_AT_REST * film_peak;
+        if !p.is_empty() && p.iter().all(before_film) {
+            let rest = median(rec.tau[j].clone());
+            let level = rec.tau[j]
+                .iter()
+                .map(|v| (v - rest).abs())
+                .fold(0.0, f64::max);
+            return Ok((summary(Tapper::Motor(j), &p, level), p));
+        }
+    }
+    let strikes = onsets(&rec.v_f, rec.dt);
+    if strikes.is_empty() {
+        return Err(IdentifyError::Data(
+            "gate `excitation`: no tap: the patch's command, the motors' torques and the film show none (a decay record holds taps of the patch, torque pulses or a hammer's strikes, seconds apart)".into(),
+        ));
+    }
+    Ok((summary(Tapper::Hammer, &strikes, f64::NAN), strikes))
+}
+
+/// The film's onsets: where its excursion from rest (its first sample) first passes half its
+/// largest after at least a second under [`FILM_AT_REST`] of it; each a tap of no width,
+/// signed by the excursion.
+fn onsets(v_f: &[f64], dt: f64) -> Vec<Pulse> {
+    let rest = v_f.first().copied().unwrap_or(0.0);
+    let peak = v_f.iter().map(|v| (v - rest).abs()).fold(0.0, f64::max);
+    let quiet = (1.0 / dt) as usize;
+    let mut out = Vec::new();
+    let mut calm = 0;
+    let mut armed = false;
+    for (k, v) in v_f.iter().enumerate() {
+        let e = (v - rest).abs();
+        calm = if e < FILM_AT_REST * peak { calm + 1 } else { 0 };
+        if calm >= quiet {
+            armed = true;
+        }
+        if armed && e > 0.5 * peak {
+            out.push(Pulse {
+                start: k,
+                end: k,
+                sign: (v - rest).signum(),
+            });
+            armed = false;
+        }
+    }
+    out
 }
 
 /// The pulses of `v_a`: from a sample beyond half its largest magnitude to the next sample at
 /// (almost) zero (an amplifier slews in between).
-fn taps(v_a: &[f64]) -> Vec<Tap> {
+fn taps(v_a: &[f64]) -> Vec<Pulse> {
     let peak = v_a.iter().map(|v| v.abs()).fold(0.0, f64::max);
     let (on, off) = (0.5 * peak, 1e-3 * peak);
     let mut out = Vec::new();
@@ -327,7 +472,7 @@ fn taps(v_a: &[f64]) -> Vec<Tap> {
         match open {
             None if v.abs() > on => open = Some((k, v.signum())),
             Some((start, sign)) if v.abs() <= off => {
-                out.push(Tap {
+                out.push(Pulse {
                     start,
                     end: k,
                     sign,

@@ -20,6 +20,7 @@ use flexarm_core::Vector2;
 use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::params::ArmParams;
 
+use super::decay::{DecayFit, DecaySettings, Tapper, fit_decay};
 use super::geometry::Geometry;
 use super::inertia::{InertiaFit, Rigid, fit_inertia, fit_inertia_flexible};
 use super::modal::{self, FitSettings, ModesFit};
@@ -190,6 +191,11 @@ impl Kind {
         Kind::Random,
     ];
 
+    /// A record of taps (the decay fit reads it too).
+    pub fn taps(self) -> bool {
+        matches!(self, Kind::PatchTaps | Kind::TorqueTaps | Kind::HammerTaps)
+    }
+
     /// Its name in tables and file names.
     pub fn name(self) -> &'static str {
         match self {
@@ -304,6 +310,7 @@ impl FamilyArm {
             l_a: self.patch.l_a,
             k_a: c.k_a,
             k_s: c.k_s,
+            torque_limit: self.bench()?.limits.tau_max.cast::<f64>().into(),
             ..Geometry::default()
         })
     }
@@ -334,6 +341,10 @@ pub fn lab_record(
     back
 }
 
+/// Below this share of the truth's second mode a decay's modes are the held arm's first mode
+/// and the hold's, not the clamped link's: a decay is compared with the truth from there up.
+pub const HELD_BELOW: f64 = 0.75;
+
 /// The share of the film ADC's range the lab's excitations are sized to.
 pub const FILM_SHARE: f64 = 0.4;
 
@@ -346,6 +357,8 @@ pub struct ArmResult {
     pub truth: Vec<TrueMode>,
     /// Per kind of record, the modes fit (or its refusal).
     pub modes: Vec<(Kind, Result<ModesFit, String>)>,
+    /// Per kind of tap record, the decay fit (or its refusal).
+    pub decays: Vec<(Kind, Result<DecayFit, String>)>,
     /// The inertia fit of its swing (or its refusal), and the true combinations.
     pub inertia: (Result<InertiaFit, String>, Rigid),
     /// The model from the first kind whose fit found the clamped modes, and its closed-loop
@@ -366,11 +379,20 @@ pub fn identify_arm(
     let geometry = arm.geometry()?;
     let truth = arm.modes()?;
     let mut modes = Vec::new();
+    let mut decays = Vec::new();
     for &kind in kinds {
         let trace = lab_record(dir, (arm.name, kind.name()), &kind.plan(&bench), keep)?;
-        let fit = ModesRecord::from_trace(&trace, geometry.film_range, geometry.amplifier_window)
-            .and_then(|rec| modal::fit_modes(&rec, &FitSettings::default()))
+        let rec = ModesRecord::from_trace(&trace, geometry.film_range, geometry.amplifier_window)
             .map_err(|e| e.to_string());
+        if kind.taps() {
+            let fit = rec
+                .as_ref()
+                .map_err(Clone::clone)
+                .and_then(|r| fit_decay(r, &DecaySettings::default()).map_err(|e| e.to_string()));
+            decays.push((kind, fit));
+        }
+        let fit = rec
+            .and_then(|r| modal::fit_modes(&r, &FitSettings::default()).map_err(|e| e.to_string()));
         modes.push((kind, fit));
     }
     let swing_trace = lab_record(dir, (arm.name, "swing"), &swing(&bench, truth[0].hz), keep)?;
@@ -382,15 +404,16 @@ pub fn identify_arm(
             .filter(|f| f.held.is_none())
             .map(|f| (*k, f))
     });
-    let inertia = match clamped {
-        Some((_, fit)) => {
-            fit_inertia_flexible(&swing_trace, geometry.a1, geometry.s_floor(), &|s| {
-                coupling(&geometry, fit, s)
-            })
-        }
-        None => fit_inertia(&swing_trace),
-    }
-    .map_err(|e| e.to_string());
+    let inertia = super::record::check_torques(&swing_trace, geometry.torque_limit)
+        .and_then(|()| match clamped {
+            Some((_, fit)) => {
+                fit_inertia_flexible(&swing_trace, geometry.a1, geometry.s_floor(), &|s| {
+                    coupling(&geometry, fit, s)
+                })
+            }
+            None => fit_inertia(&swing_trace),
+        })
+        .map_err(|e| e.to_string());
     let check = (|| {
         let (kind, fit) = clamped.ok_or("no record found the clamped modes")?;
         let inertia = inertia
@@ -409,6 +432,7 @@ pub fn identify_arm(
         arm: arm.clone(),
         truth,
         modes,
+        decays,
         inertia: (inertia, Rigid::of(&bench.arm)),
         check,
     })
@@ -429,8 +453,119 @@ pub fn nearest(truth: &[TrueMode], hz: f64) -> Option<(usize, TrueMode)> {
         .map(|(j, m)| (j + 1, m))
 }
 
+/// Every arm's fit (`pick` of its results) of the records of `kind`.
+fn of_kind<'a, T>(
+    results: &'a [ArmResult],
+    kind: Kind,
+    pick: impl Fn(&'a ArmResult) -> &'a [(Kind, T)],
+) -> Vec<(&'a ArmResult, &'a T)> {
+    results
+        .iter()
+        .flat_map(|r| {
+            pick(r)
+                .iter()
+                .filter(|(k, _)| *k == kind)
+                .map(move |(_, f)| (r, f))
+        })
+        .collect()
+}
+
+/// Per kind of record, over the family: how many arms' records gave the clamped modes (or
+/// the held arm's, or were refused), and the worst error of the controller's modes (the
+/// kept ones, against the truth's of the same number) in frequency, damping and the
+/// piezo→film product; per kind of tap record, the worst error of the link's modes the decay
+/// shows (from [`HELD_BELOW`] of the truth's second mode up).
+pub fn summary(results: &[ArmResult]) -> String {
+    let worst = |x: &mut dyn Iterator<Item = f64>| {
+        let w = x.fold(f64::NAN, |a, b| {
+            if a.is_nan() || b.abs() > a.abs() {
+                b
+            } else {
+                a
+            }
+        });
+        if w.is_nan() {
+            "—".to_string()
+        } else {
+            format!("{:+.2} %", 100.0 * w)
+        }
+    };
+    let mut s = String::from(
+        "| record | clamped modes | held arm's | refused | worst error f | worst error ζ | worst error g |\n|---|---|---|---|---|---|---|\n",
+    );
+    for kind in Kind::ALL {
+        let fits = of_kind(results, kind, |r| &r.modes);
+        if fits.is_empty() {
+            continue;
+        }
+        let clamped: Vec<(&ArmResult, &ModesFit)> = fits
+            .iter()
+            .filter_map(|(r, f)| {
+                f.as_ref()
+                    .ok()
+                    .filter(|f| f.held.is_none())
+                    .map(|f| (*r, f))
+            })
+            .collect();
+        let held = fits
+            .iter()
+            .filter(|(_, f)| f.as_ref().is_ok_and(|f| f.held.is_some()))
+            .count();
+        let refused = fits.iter().filter(|(_, f)| f.is_err()).count();
+        let errors = |e: fn(&super::modal::IdentifiedMode, &TrueMode) -> f64| {
+            let mut v = Vec::new();
+            for (r, f) in &clamped {
+                for (m, t) in f.modes.iter().zip(&r.truth) {
+                    v.push(e(m, t));
+                }
+            }
+            v
+        };
+        s += &format!(
+            "| {} | {} | {held} | {refused} | {} | {} | {} |\n",
+            kind.name(),
+            clamped.len(),
+            worst(&mut errors(|m, t| m.hz() / t.hz - 1.0).into_iter()),
+            worst(&mut errors(|m, t| m.zeta / t.zeta - 1.0).into_iter()),
+            worst(&mut errors(|m, t| m.piezo_film / t.gain - 1.0).into_iter()),
+        );
+    }
+    s += "\n| tap record | decays fitted | refused | link modes found | worst error f | worst error ζ |\n|---|---|---|---|---|---|\n";
+    for kind in Kind::ALL.into_iter().filter(|k| k.taps()) {
+        let fits = of_kind(results, kind, |r| &r.decays);
+        if fits.is_empty() {
+            continue;
+        }
+        let mut e = Vec::new();
+        for (r, f) in &fits {
+            let Ok(f) = f else { continue };
+            for m in &f.modes {
+                let hz = m.omega / std::f64::consts::TAU;
+                if r.truth.len() > 1
+                    && hz >= HELD_BELOW * r.truth[1].hz
+                    && let Some((_, t)) = nearest(&r.truth, hz)
+                {
+                    e.push((hz / t.hz - 1.0, m.zeta / t.zeta - 1.0));
+                }
+            }
+        }
+        let ok = fits.iter().filter(|(_, f)| f.is_ok()).count();
+        s += &format!(
+            "| {} | {ok} | {} | {} | {} | {} |\n",
+            kind.name(),
+            fits.len() - ok,
+            e.len(),
+            worst(&mut e.iter().map(|x| x.0)),
+            worst(&mut e.iter().map(|x| x.1)),
+        );
+    }
+    s
+}
+
 /// The family's tables (Markdown): every mode each kind of record found against the truth,
-/// the inertias, the closed-loop check.
+/// every mode each tap record's decay shows (the held arm's: from three quarters of the
+/// truth's second mode up against the truth's modes, below it the held first mode and the
+/// hold's, marked `held`), the inertias, the closed-loop check.
 pub fn report(results: &[ArmResult]) -> String {
     let pct = |x: f64, t: f64| format!("{:+.2} %", (x / t - 1.0) * 100.0);
     let mut s = String::from(
@@ -459,7 +594,7 @@ pub fn report(results: &[ArmResult]) -> String {
                         };
                         let rel = |s: f64, x: f64| format!("{:.2} %", s / x * 100.0);
                         s += &format!(
-                            "| {} | {} | {inputs} | {j} | {:.4} | {} | {} | {:.4} | {} | {} | {:.4e} | {} | {} |\n",
+                            "| {} | {} | {inputs} | {j} | {:.4} | {} | {} | {:.4} | {} | {} | {} |\n",
                             r.arm.name,
                             kind.name(),
                             m.hz(),
@@ -468,15 +603,66 @@ pub fn report(results: &[ArmResult]) -> String {
                             m.zeta,
                             pct(m.zeta, t.zeta),
                             rel(m.sigma[1], m.zeta),
-                            m.piezo_film,
-                            pct(m.piezo_film, t.gain),
-                            rel(m.sigma[2], m.piezo_film),
+                            // Without the patch as an input there is no piezo→film product.
+                            if m.piezo_film.is_finite() {
+                                format!(
+                                    "{:.4e} | {} | {}",
+                                    m.piezo_film,
+                                    pct(m.piezo_film, t.gain),
+                                    rel(m.sigma[2], m.piezo_film)
+                                )
+                            } else {
+                                "— | — | —".to_string()
+                            },
                         );
                     }
                 }
                 Err(e) => {
                     s += &format!(
                         "| {} | {} | — | refused: {} | | | | | | | | | |\n",
+                        r.arm.name,
+                        kind.name(),
+                        e.replace('|', "/")
+                    );
+                }
+            }
+        }
+    }
+    s += "\n| arm | record | tapped by | mode | f [Hz] | error f | ζ | error ζ | amplitude [V] |\n|---|---|---|---|---|---|---|---|---|\n";
+    for r in results {
+        for (kind, fit) in &r.decays {
+            match fit {
+                Ok(f) => {
+                    let by = match f.held.tapper {
+                        Tapper::Patch => "patch".to_string(),
+                        Tapper::Motor(j) => format!("motor {}", j + 1),
+                        Tapper::Hammer => "hammer".to_string(),
+                    };
+                    for m in &f.modes {
+                        let hz = m.omega / std::f64::consts::TAU;
+                        let Some((j, t)) = nearest(&r.truth, hz) else {
+                            continue;
+                        };
+                        // The held arm's first mode and the hold's ring below the link's
+                        // second: not the clamped link's (docs/identification.md).
+                        let (mode, ef, ez) = if r.truth.len() > 1 && hz < HELD_BELOW * r.truth[1].hz
+                        {
+                            ("held".to_string(), "—".to_string(), "—".to_string())
+                        } else {
+                            (j.to_string(), pct(hz, t.hz), pct(m.zeta, t.zeta))
+                        };
+                        s += &format!(
+                            "| {} | {} | {by} | {mode} | {hz:.4} | {ef} | {:.4} | {ez} | {:.2e} |\n",
+                            r.arm.name,
+                            kind.name(),
+                            m.zeta,
+                            m.amplitude
+                        );
+                    }
+                }
+                Err(e) => {
+                    s += &format!(
+                        "| {} | {} | — | refused: {} | | | | | |\n",
                         r.arm.name,
                         kind.name(),
                         e.replace('|', "/")

@@ -243,15 +243,18 @@ pub fn check_speeds(speeds: &[f64]) -> Result<(), IdentifyError> {
 }
 
 /// The friction experiment on the simulator (`cfg`: its plant, controller and sensors), from
-/// rest at `held`: every joint's cruises, `cruise` seconds each.
+/// rest at `held`: every joint's cruises, `cruise` seconds each, and the experiment's record
+/// (its moves one after the other, the angles as the encoders read them: what
+/// [`find_cruises`] reads back).
 pub fn friction_experiment(
     cfg: &SimConfig,
     held: Vector2<f64>,
     speeds: &[f64],
     cruise: f64,
-) -> Result<Vec<Cruise>, IdentifyError> {
+) -> Result<(Vec<Cruise>, Vec<Sample>), IdentifyError> {
     check_speeds(speeds)?;
     let mut cruises = Vec::new();
+    let mut record: Vec<Sample> = Vec::new();
     for joint in 0..2 {
         for &v in speeds {
             for (traj, window) in moves(held, joint, v, cruise)? {
@@ -264,7 +267,105 @@ pub fn friction_experiment(
                     IdentifyError::Sim(format!("joint {} at {v} rad/s: {e}", joint + 1))
                 })?;
                 cruises.push(cruise_of(&trace, joint, window)?);
+                let dt = trace.get(1).map_or(0.0, |s| s.t) - trace[0].t;
+                let t0 = record.last().map_or(0.0, |s| s.t + dt) - trace[0].t;
+                record.extend(
+                    super::encoder_readings(&cfg.sensors, trace)
+                        .into_iter()
+                        .map(|mut s| {
+                            s.t += t0;
+                            s
+                        }),
+                );
             }
+        }
+    }
+    Ok((cruises, record))
+}
+
+/// A record's joint speeds are the encoders' central differences over this half-width [s].
+const SPEED_SPAN: f64 = 0.25;
+/// Share of a move's plateau speed within which it cruises. The difference sees the
+/// decelerating ramp a span early and crosses this share `√(4 SPEED_SPAN (1 − PLATEAU) v /
+/// ACCEL)` after that (0.24 s at 3 rad/s, the fastest the experiment runs): less than the
+/// span and a half the cruise's window ends before that crossing, so it ends on the cruise.
+const PLATEAU: f64 = 0.98;
+/// The slowest cruise a record's moves are searched for [rad/s].
+const SLOWEST: f64 = 0.02;
+/// The other joint's speed while a joint cruises, at most, as a share of the cruise's.
+const OTHER_STILL: f64 = 0.05;
+
+/// The cruises in a record of constant-speed moves (a board's or the simulator's, any order
+/// of joints, speeds and directions): each joint's speed as the encoders' central difference
+/// over ±[`SPEED_SPAN`]; a move is a run of one sign above [`SLOWEST`] rad/s, its plateau the
+/// median speed of its half above half its peak; its cruise from where the speed first
+/// reaches [`PLATEAU`] of the plateau, plus [`SETTLE`], to where it last does, less half the
+/// difference's span; kept when at least half a second long with the other joint still (under
+/// [`OTHER_STILL`] of the cruise's speed: the arm's coupling torques vanish only then).
+/// Refused (gate `excitation`) when a joint has none.
+pub fn find_cruises(trace: &[Sample]) -> Result<Vec<Cruise>, IdentifyError> {
+    let dt = super::even_period(trace)?;
+    let h = ((SPEED_SPAN / dt).round() as usize).max(1);
+    let n = trace.len();
+    if n <= 2 * h {
+        return Err(IdentifyError::Data(format!(
+            "gate `record length`: {n} samples: too short for a cruise"
+        )));
+    }
+    let speed = |j: usize| -> Vec<f64> {
+        (0..n)
+            .map(|k| {
+                let (a, b) = (k.saturating_sub(h), (k + h).min(n - 1));
+                (trace[b].x.q[j] - trace[a].x.q[j]) / ((b - a) as f64 * dt)
+            })
+            .collect()
+    };
+    let v = [speed(0), speed(1)];
+    let mut cruises = Vec::new();
+    for joint in 0..2 {
+        let (mine, other) = (&v[joint], &v[1 - joint]);
+        let mut k = 0;
+        while k < n {
+            if mine[k].abs() <= SLOWEST {
+                k += 1;
+                continue;
+            }
+            let sign = mine[k].signum();
+            let start = k;
+            while k < n && mine[k] * sign > SLOWEST {
+                k += 1;
+            }
+            let run = &mine[start..k];
+            let peak = run.iter().map(|x| x.abs()).fold(0.0, f64::max);
+            let mut upper: Vec<f64> = run
+                .iter()
+                .map(|x| x.abs())
+                .filter(|x| *x >= 0.5 * peak)
+                .collect();
+            upper.sort_by(f64::total_cmp);
+            let plateau = upper[upper.len() / 2];
+            let on = |x: &f64| x.abs() >= PLATEAU * plateau;
+            let (Some(a), Some(b)) = (run.iter().position(on), run.iter().rposition(on)) else {
+                continue;
+            };
+            let span = h as f64 * dt;
+            let window = (trace[start + a].t + SETTLE, trace[start + b].t - 0.5 * span);
+            if window.1 - window.0 < 0.5 {
+                continue;
+            }
+            let inside = (start + a..=start + b)
+                .filter(|&i| trace[i].t >= window.0 && trace[i].t <= window.1);
+            let still = inside.map(|i| other[i].abs()).fold(0.0, f64::max);
+            if still < OTHER_STILL * plateau {
+                cruises.push(cruise_of(trace, joint, window)?);
+            }
+        }
+        if !cruises.iter().any(|c| c.joint == joint) {
+            return Err(IdentifyError::Data(format!(
+                "gate `excitation`: joint {} has no cruise in the record (a move at constant speed of at least {SLOWEST} rad/s, {:.1} s long, the other joint still): record the friction experiment's moves",
+                joint + 1,
+                SETTLE + 1.5 * SPEED_SPAN + 0.5
+            )));
         }
     }
     Ok(cruises)

@@ -16,6 +16,7 @@
 //! [board]
 //! film_range = 10.0                   # V, the film ADC's ±range
 //! amplifier_window = [-200.0, 200.0]  # V
+//! torque_limit = [10.0, 10.0]         # N m, each drive's largest torque
 //! ```
 //!
 //! Every key is optional; the defaults are the paper's arm and patch (`ArmParams::default`,
@@ -56,12 +57,16 @@ pub struct Geometry {
     pub film_range: f64,
     /// The amplifier's window [V].
     pub amplifier_window: (f64, f64),
+    /// Each drive's largest torque `±torque_limit` [N·m].
+    pub torque_limit: [f64; 2],
 }
 
 impl Default for Geometry {
-    /// The paper's arm and patch, a ±10 V film ADC, a ±200 V amplifier.
+    /// The paper's arm and patch, a ±10 V film ADC, a ±200 V amplifier, the project's drives'
+    /// torque limits (`flexarm_core::params::Limits`: ±10 N·m).
     fn default() -> Self {
         let (arm, p) = (ArmParams::<f64>::default(), PiezoPatch::<f64>::paper());
+        let tau_max = flexarm_core::params::Limits::<f64>::default().tau_max;
         Self {
             a1: arm.a1,
             a2: arm.a2,
@@ -73,6 +78,7 @@ impl Default for Geometry {
             k_s: p.k_s,
             film_range: 10.0,
             amplifier_window: (-200.0, 200.0),
+            torque_limit: [tau_max.x, tau_max.y],
         }
     }
 }
@@ -119,6 +125,8 @@ struct BoardTable {
     film_range: Option<f64>,
     #[serde(default, deserialize_with = "flexarm_beam::toml_at::option_array")]
     amplifier_window: Option<[f64; 2]>,
+    #[serde(default, deserialize_with = "flexarm_beam::toml_at::option_array")]
+    torque_limit: Option<[f64; 2]>,
 }
 
 impl Geometry {
@@ -142,6 +150,7 @@ impl Geometry {
                 .board
                 .amplifier_window
                 .map_or(d.amplifier_window, |[a, b]| (a, b)),
+            torque_limit: f.board.torque_limit.unwrap_or(d.torque_limit),
         };
         g.validate()?;
         Ok(g)
@@ -167,6 +176,9 @@ impl Geometry {
         within("patch.k_a", self.k_a, 1e-12, 1e6, "N m/V")?;
         within("patch.k_s", self.k_s, 1e-12, 1e12, "V/rad")?;
         within("board.film_range", self.film_range, 1e-6, 1e6, "V")?;
+        for l in self.torque_limit {
+            within("board.torque_limit", l, 1e-6, 1e6, "N m")?;
+        }
         let (lo, hi) = self.amplifier_window;
         if !(lo.is_finite() && hi.is_finite() && lo < 0.0 && hi > 0.0) {
             return Err(format!(

@@ -853,6 +853,24 @@ fn finish(
         }
         all.retain(|m| m.piezo_film > 0.0);
     }
+    all.sort_by(|a, b| a.omega.total_cmp(&b.omega));
+    // Two resonances whose half-power bands (±ζf) meet cannot be told apart by any record:
+    // such a pair is the fit splitting one response, or modes no record resolves.
+    if let Some(w) = all
+        .windows(2)
+        .find(|w| w[1].hz() - w[0].hz() < w[0].zeta * w[0].hz() + w[1].zeta * w[1].hz())
+    {
+        return Err(gate(
+            "modes",
+            format!(
+                "resonances at {:.3} Hz (ζ {:.4}) and {:.3} Hz (ζ {:.4}) overlap (their half-power bands meet): the record does not tell them apart; record longer, or excite the base and the patch at once",
+                w[0].hz(),
+                w[0].zeta,
+                w[1].hz(),
+                w[1].zeta
+            ),
+        ));
+    }
     let list = all
         .iter()
         .map(|m| format!("{:.3} Hz", m.hz()))
@@ -877,6 +895,18 @@ fn finish(
                 ),
             ));
         };
+        // A damping ratio whose spread is as large as itself is not resolved.
+        if m.sigma[1] >= m.zeta {
+            return Err(gate(
+                "uncertainty",
+                format!(
+                    "mode {k} at {:.3} Hz: a damping ratio of {:.4} ± {:.4}: the record does not resolve it; record longer, or excite the base and the patch at once",
+                    m.hz(),
+                    m.zeta,
+                    m.sigma[1]
+                ),
+            ));
+        }
         modes.push(*m);
     }
     notes.push(format!(

@@ -148,6 +148,67 @@ pub fn check_channels(rec: &ModesRecord) -> Result<(), IdentifyError> {
     Ok(())
 }
 
+/// Share of a torque's samples at its drive's limit above which the record is refused as
+/// saturated: a drive at its limit does not give what its command asks, and a fit that reads
+/// the torque (the inertias') charges the difference to the arm. A tap at the limit is short
+/// (five 20 ms taps are 0.1 % of a 100 s record) and the decay after it is free.
+pub const SATURATED_SHARE: f64 = 0.01;
+
+/// The gate `clipping` on the torques of `trace`: each joint's `tau` at its drive's limit
+/// `±limit` [N·m] for at most [`SATURATED_SHARE`] of the samples.
+pub fn check_torques(trace: &[Sample], limit: [f64; 2]) -> Result<(), IdentifyError> {
+    let n = trace.len();
+    for (j, l) in limit.iter().enumerate() {
+        let at = trace
+            .iter()
+            .filter(|s| s.tau[j].abs() >= l * (1.0 - 1e-6))
+            .count();
+        if at as f64 > SATURATED_SHARE * n as f64 {
+            return Err(IdentifyError::Data(format!(
+                "gate `clipping`: `tau{}` is saturated: {at} of {n} samples ({:.1} %) at the drive's limit ±{l} N·m, at most {} %: lower the excitation or slow the moves",
+                j + 1,
+                100.0 * at as f64 / n as f64,
+                100.0 * SATURATED_SHARE
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A record read from the trace CSV `path` (`crate::output::read_csv`), its header checked
+/// first: a header that names some of the trace's columns but not all is refused with the
+/// gate `channels` and the columns missing.
+pub fn read_record(path: &std::path::Path) -> Result<Vec<Sample>, String> {
+    use std::io::{BufRead, Read};
+    let shown = path.display();
+    let file = std::fs::File::open(path).map_err(|e| format!("{shown}: {e}"))?;
+    let mut first = String::new();
+    std::io::BufReader::new(file)
+        .take(4096)
+        .read_line(&mut first)
+        .map_err(|e| format!("{shown}:1: {e}"))?;
+    let names: Vec<&str> = first
+        .trim_start_matches('\u{feff}')
+        .trim()
+        .split(',')
+        .map(str::trim)
+        .collect();
+    let columns: Vec<&str> = crate::output::CSV_HEADER.split(',').collect();
+    let missing: Vec<String> = columns
+        .iter()
+        .filter(|c| !names.contains(c))
+        .map(|c| format!("`{c}`"))
+        .collect();
+    if !missing.is_empty() && missing.len() < columns.len() {
+        return Err(format!(
+            "{shown}:1: gate `channels`: the column(s) {} missing (a trace has {})",
+            missing.join(", "),
+            crate::output::CSV_HEADER
+        ));
+    }
+    crate::output::read_csv(path)
+}
+
 /// An encoder's step [rad] as the record shows it: the smallest change between two samples
 /// (0 when the angle never changes); changes under 1 µrad are the trace's rounding (eight
 /// significant digits), not a step.
@@ -211,7 +272,8 @@ fn median(x: &[f64]) -> f64 {
 
 /// The pulses of `x` (sampled every `dt` [s]) from its rest (its median): runs beyond half its
 /// largest excursion, each at most [`MAX_TAP`], with the channel within a tenth of that
-/// excursion for at least four fifths of the record. Empty when `x` is not a train of pulses.
+/// excursion for at least four fifths of the record; a run within [`SAME_TAP`] of the one
+/// before is part of its tap. Empty when `x` is not a train of pulses.
 pub fn pulses(x: &[f64], dt: f64) -> Vec<Pulse> {
     let rest = median(x);
     let peak = x.iter().map(|v| (v - rest).abs()).fold(0.0, f64::max);
@@ -254,8 +316,23 @@ pub fn pulses(x: &[f64], dt: f64) -> Vec<Pulse> {
     if longest > MAX_TAP {
         return Vec::new();
     }
-    out
+    // A pulse that starts within `SAME_TAP` of the one before's end is that tap's ringing.
+    let mut taps: Vec<Pulse> = Vec::new();
+    let mut last_end = None;
+    for p in out {
+        match last_end {
+            Some(e) if (p.start - e) as f64 * dt < SAME_TAP => {}
+            _ => taps.push(p),
+        }
+        last_end = Some(p.end);
+    }
+    taps
 }
+
+/// A pulse that starts less than this [s] after the one before ends belongs to the same tap:
+/// the hold's reaction to a hammer's strike swings in the torque for about a second, its
+/// swings under half a second apart.
+const SAME_TAP: f64 = 0.5;
 
 /// The samples where `x` is away from its rest (its first sample) by more than `floor`, as the
 /// first and one past the last.

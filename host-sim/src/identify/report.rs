@@ -308,12 +308,12 @@ pub fn loop_report(runs: &[LoopRun]) -> String {
     s
 }
 
-/// The held arm's decay: the measured modes (the `n` strongest), and each model's prediction
-/// of each (its nearest mode) against them, then the modes a prediction rings at besides
-/// (at least a tenth of its largest amplitude).
-pub fn decay_report(measured: &DecayFit, n: usize, predictions: &[(&str, DecayFit)]) -> String {
+/// The held arm's decay: every measured mode, ascending, with its amplitude, and each model's
+/// prediction of each (its nearest mode) against them, then the modes a prediction rings at
+/// besides (at least a tenth of its largest amplitude).
+pub fn decay_report(measured: &DecayFit, predictions: &[(&str, DecayFit)]) -> String {
     let tau = std::f64::consts::TAU;
-    let seen = measured.strongest(n);
+    let seen = &measured.modes;
     let row = |cells: Vec<String>| format!("| {} |\n", cells.join(" | "));
     let mut head = vec![String::new()];
     for j in 1..=seen.len() {
@@ -324,16 +324,23 @@ pub fn decay_report(measured: &DecayFit, n: usize, predictions: &[(&str, DecayFi
     let mut s = row(head);
     s += &format!("{}|\n", "|---".repeat(2 + 2 * seen.len()));
     let mut cells = vec!["measured".to_string()];
-    for m in &seen {
+    for m in seen {
         cells.push(format!("{:.4}", m.omega / tau));
         cells.push(format!("{:.4}", m.zeta));
     }
     cells.push("—".into());
     s += &row(cells);
+    let mut cells = vec!["amplitude [V]".to_string()];
+    for m in seen {
+        cells.push(format!("{:.3e}", m.amplitude));
+        cells.push(String::new());
+    }
+    cells.push(String::new());
+    s += &row(cells);
     for (name, p) in predictions {
         let mut cells = vec![name.to_string()];
         let mut matched = Vec::new();
-        for m in &seen {
+        for m in seen {
             match p.nearest(m.omega) {
                 Some(q) => {
                     matched.push(q.omega);

@@ -8,7 +8,7 @@ use flexarm_core::Vector2;
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::params::ArmParams;
 
-use super::decay::{self, DecayFit, DecayPlan, DecaySettings};
+use super::decay::{self, DecayFit, DecayPlan, DecaySettings, Tapper};
 use super::geometry::Geometry;
 use super::inertia::{self, InertiaFit, InertiaPlan, Rigid};
 use super::modal::{self, FitSettings, ModesFit};
@@ -16,7 +16,7 @@ use super::model::{self, closed_loop, identified_model};
 use super::modes::{self, ModesPlan};
 use super::record::ModesRecord;
 use super::report;
-use crate::output::{read_csv, trace_csv};
+use crate::output::trace_csv;
 use crate::sim::{Sample, SimConfig};
 
 /// Where the experiments run and what is known of the plant.
@@ -70,7 +70,7 @@ fn record_or_run(
     run: impl FnOnce() -> Result<Vec<Sample>, super::IdentifyError>,
 ) -> Result<Vec<Sample>, String> {
     match record {
-        Some(p) => read_csv(p),
+        Some(p) => super::record::read_record(p),
         None => {
             let trace = run().map_err(|e| e.to_string())?;
             save_record(b.dir, name, &trace)?;
@@ -151,20 +151,30 @@ pub fn inertia_step(
         inertia::inertia_experiment(b.cfg, &InertiaPlan::default())
     })?;
     let truth = b.known.then(|| Rigid::of(&b.cfg.arm));
-    save_inertia(b.dir, &trace, truth, modes.map(|m| (b.geometry, m))).map_err(naming(record))
+    let geometry = match record {
+        Some(_) => *b.geometry,
+        None => Geometry {
+            torque_limit: b.cfg.limits.tau_max.cast::<f64>().into(),
+            ..*b.geometry
+        },
+    };
+    save_inertia(b.dir, &trace, truth, &geometry, modes).map_err(naming(record))
 }
 
-/// Fits the inertia record `trace` (with the modes of a modes fit on a geometry taken out of
-/// the torques, when given) and writes `inertia.md` into `dir` (against `truth` when known).
+/// Fits the inertia record `trace` of an arm of geometry `g` (its torques within the drives'
+/// limits, `super::record::check_torques`; with the modes of a modes fit taken out of the
+/// torques, when given) and writes `inertia.md` into `dir` (against `truth` when known).
 /// Returns the fit and the report.
 pub fn save_inertia(
     dir: &Path,
     trace: &[Sample],
     truth: Option<Rigid>,
-    modes: Option<(&Geometry, &ModesFit)>,
+    g: &Geometry,
+    modes: Option<&ModesFit>,
 ) -> Result<(InertiaFit, String), String> {
+    super::record::check_torques(trace, g.torque_limit).map_err(|e| e.to_string())?;
     let (fit, how) = match modes {
-        Some((g, m)) => (
+        Some(m) => (
             inertia::fit_inertia_flexible(trace, g.a1, g.s_floor(), &|s| model::coupling(g, m, s)),
             format!(
                 "the link's {} mode(s) the modes fit found taken out of the torques through the geometry's shapes",
@@ -195,30 +205,57 @@ pub const CHECK_PIEZO: PiezoGains<f32> = PiezoGains {
 pub const CHECK_K_C: f64 = 3.162;
 
 /// The friction step: the experiment on the simulator at `speeds` [rad/s] with `cruise`
-/// seconds averaged, its fit and `friction.*`. Returns the report.
-pub fn friction_step(b: &Bench, speeds: &[f64], cruise: f64) -> Result<String, String> {
-    let held = Vector2::from(super::HELD);
-    let cruises =
-        super::friction_experiment(b.cfg, held, speeds, cruise).map_err(|e| e.to_string())?;
-    let fits = super::fit_joints(&cruises).map_err(|e| e.to_string())?;
+/// seconds averaged (its record saved as `friction_record.csv`), or the cruises found in
+/// `record` ([`super::find_cruises`]); the fit and `friction.*`. Returns the report.
+pub fn friction_step(
+    b: &Bench,
+    record: Option<&Path>,
+    speeds: &[f64],
+    cruise: f64,
+) -> Result<String, String> {
+    let (cruises, source) = match record {
+        Some(p) => {
+            let trace = super::record::read_record(p)?;
+            let cruises = super::find_cruises(&trace).map_err(|e| naming(record)(e.to_string()))?;
+            let n = cruises.len();
+            (
+                cruises,
+                format!(
+                    "the record {}: {n} cruises found in it (constant-speed stretches of one joint, the other still; `identify::find_cruises`)",
+                    p.display()
+                ),
+            )
+        }
+        None => {
+            let held = Vector2::from(super::HELD);
+            let (cruises, trace) = super::friction_experiment(b.cfg, held, speeds, cruise)
+                .map_err(|e| e.to_string())?;
+            save_record(b.dir, "friction", &trace)?;
+            let truth = b.cfg.truth.filter(|_| b.known);
+            let plant = match truth {
+                Some(t) => format!(
+                    "the truth plant (link 2 with {} modes, geared drives with friction, a realistic board)",
+                    t.modes
+                ),
+                None => "the controller's own model (no friction: the fit should find none)".into(),
+            };
+            let source = format!(
+                "{plant}: each joint at {} rad/s, both ways, {cruise} s of cruise averaged after {} s of settling",
+                speeds
+                    .iter()
+                    .map(|v| v.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                super::SETTLE
+            );
+            (cruises, source)
+        }
+    };
+    let fits = super::fit_joints(&cruises).map_err(|e| naming(record)(e.to_string()))?;
     let truth = b.cfg.truth.filter(|_| b.known);
     let known = truth.map(|t| [0, 1].map(|j| (t.motors[j].coulomb, t.motors[j].viscous)));
-    let plant = match truth {
-        Some(t) => format!(
-            "the truth plant (link 2 with {} modes, geared drives with friction, a realistic board)",
-            t.modes
-        ),
-        None => "the controller's own model (no friction: the fit should find none)".into(),
-    };
-    let heading = format!(
-        "Identified on {plant}: each joint at {} rad/s, both ways, {cruise} s of cruise averaged after {} s of settling (`cargo sim identify friction`, docs/identification.md).",
-        speeds
-            .iter()
-            .map(|v| v.to_string())
-            .collect::<Vec<_>>()
-            .join(", "),
-        super::SETTLE
-    );
+    let heading =
+        format!("Identified on {source} (`cargo sim identify friction`, docs/identification.md).");
     super::save_friction(b.dir, &heading, &cruises, &fits, known, b.plots)
 }
 
@@ -257,7 +294,7 @@ pub fn all(
     nominal: (&ArmParams<f64>, &PiezoPatch<f64>),
     seconds: f64,
 ) -> Result<String, String> {
-    let f_text = friction_step(b, &super::SPEEDS, super::CRUISE)?;
+    let f_text = friction_step(b, None, &super::SPEEDS, super::CRUISE)?;
     let (modes, m_text) = modes_step(b, None, seconds, &FitSettings::default())?;
     let (inertia, i_text) = inertia_step(b, None, Some(&modes))?;
     let (arm, patch, _) = write_model(b, nominal.0, &modes, &inertia)?;
@@ -349,9 +386,11 @@ pub fn decay_step(
     .map_err(naming(record))
 }
 
-/// Fits the decay record `trace` (its film ADC's range [V] and amplifier window [V]) of the
-/// experiment `plan`, predicts each of `models` on `board` (the same experiment on the
-/// controller built from the model, the model its plant) and writes `decay.md`, `decay.csv`
+/// Fits the decay record `trace` (its film ADC's range [V] and amplifier window [V]; tapped by
+/// the patch, a motor or a hammer), predicts each of `models` on `board` (the same experiment
+/// on the controller built from the model, the model its plant: the record's patch command
+/// replayed, or `plan`'s taps at the record's pose when a motor or a hammer tapped it) and
+/// writes `decay.md`, `decay.csv`
 /// and, with `plots`, `decay.svg` into `dir`. Returns the fit and the report.
 pub fn save_decay(
     dir: &Path,
@@ -369,26 +408,43 @@ pub fn save_decay(
         ..d
     };
     let measured = decay::fit_decay(&rec, &set).map_err(|e| e.to_string())?;
-    let (ex, seconds) = decay::replay(trace).map_err(|e| e.to_string())?;
+    // The patch's taps are replayed on each model; a motor's pulses or a hammer's strikes
+    // cannot be (the model's controller holds the joints, and the truth plant alone takes a
+    // strike): the models are tapped by the plan's patch taps at the record's pose instead.
+    let (replayed, how) = match measured.held.tapper {
+        Tapper::Patch => (
+            decay::replay(trace).map_err(|e| e.to_string())?,
+            "each model's row is the same experiment on the controller built from it (the record's patch command replayed), the model its plant".to_string(),
+        ),
+        _ => {
+            let pose = trace.first().map_or(plan.pose, |x| x.q_d);
+            let taps = DecayPlan { pose, ..*plan };
+            (
+                (taps.excitation().map_err(|e| e.to_string())?, taps.seconds()),
+                format!(
+                    "the record's taps are not the patch's, so each model's row taps the controller built from it with the patch instead ({} taps of ±{} V for {} s, {} s apart), the model its plant: the poles are the model's whatever taps them, the amplitudes are not",
+                    taps.taps, taps.volts, taps.width, taps.spacing
+                ),
+            )
+        }
+    };
     let mut predictions = Vec::new();
     for (name, arm, patch) in models {
-        let p = decay::predict(board, arm, patch, (&ex, seconds), &set)
+        let p = decay::predict(board, arm, patch, (&replayed.0, replayed.1), &set)
             .map_err(|e| format!("predicting with the {name}: {e}"))?;
         predictions.push((*name, p));
     }
     let text = format!(
         "# The held arm's free decay
 
-Joints held at (0, π/2) rad, the piezo loop off; {} taps of the patch (±{} V for {} s, {} s apart); the film's decays averaged and fitted by the matrix pencil in {}–{:.0} Hz (`docs/identification.md`). These are the held arm's modes, the link's coupled with the servo: each model's row is the same experiment on the controller built from it, the model its plant, and its error against the measured decay.
+The record held {}; {} decays averaged, fitted by the matrix pencil in {}–{:.0} Hz (`docs/identification.md`); every mode found is listed. These are the held arm's modes, the link's coupled with the hold: {how}, and its error against the measured decay.
 
 {}",
+        measured.held,
         measured.taps,
-        plan.volts,
-        plan.width,
-        plan.spacing,
         set.band.0,
         set.band.1,
-        report::decay_report(&measured, set.modes, &predictions)
+        report::decay_report(&measured, &predictions)
     );
     write(dir, "decay.md", &text)?;
     write(dir, "decay.csv", &report::decay_csv(&measured))?;
