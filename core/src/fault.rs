@@ -114,7 +114,7 @@ impl Fault {
             Self::Overspeed => "overspeed",
             Self::SoftLimit => "joint at the end of its range",
             Self::Overload => "motor overload (I2t)",
-            Self::EncoderMismatch => "encoder disagrees with the motion (slipping or reversed)",
+            Self::EncoderMismatch => "encoder disagrees with the motion",
         }
     }
 }

@@ -143,6 +143,10 @@ impl<T: Real> MotionLimits<T> {
     /// sensors' range (θ1 ±π, θ2 ±2.8 rad) with a 0.02 rad margin beyond the stopping distance
     /// at 10 rad/s²; motors rated 4 N·m continuous with a 20 s winding time constant, derating
     /// from 60 % of the rating's heat to the continuous torque at 90 %, faulting at 95 %.
+    ///
+    /// Inlined: with a constant rate (a board's) its `f64` arithmetic folds away, and a
+    /// firmware links no double-precision routines for it.
+    #[inline(always)]
     pub fn default_for(motor_hz: u32, model: &Model<T>) -> Self {
         // The windows in periods, a few samples whatever the rate. At the QEMU board's 100 Hz
         // 10 ms is one period, and one noisy speed estimate on the circle tripped the runaway
@@ -192,12 +196,12 @@ impl<T: Real> MotionLimits<T> {
     ///   within before its reading must change.
     pub fn for_arm(mut self, model: &Model<T>, stiffness: Vector2<T>) -> Self {
         let mut inverse = crate::Matrix2::<T>::zeros();
-        for k in 0..16 {
-            let theta2 = T::c(f64::from(k) * core::f64::consts::TAU / 16.0);
-            let pose = Vector4::new(T::zero(), theta2, T::zero(), T::zero());
+        let mut pose = Vector4::zeros();
+        for _ in 0..16 {
             if let Some(s) = model.terms(&pose).schur_inverse() {
                 inverse = inverse.sup(&s.abs());
             }
+            pose.y += T::c(core::f64::consts::TAU / 16.0);
         }
         self.inertia_inv = inverse;
         let band = Vector2::new(self.encoder_band, self.encoder_band);
@@ -262,7 +266,67 @@ struct Reckoning<T> {
     reference: T,
 }
 
+/// What a joint's reckoning reads in a period (angles [rad], speed [rad/s], acceleration
+/// [rad/s²]).
+struct Joint<T> {
+    theta: T,
+    /// The last period's reading, `None` after a restart.
+    previous: Option<T>,
+    theta_d: T,
+    speed: T,
+    accel: T,
+    unexplained: T,
+    frozen_reference: T,
+}
+
 impl<T: Real> Reckoning<T> {
+    /// One period (module docs): the fault the reading shows, if any, and the evidence
+    /// `|(y − y_0) − d| / (u + encoder_band)`; then the reckoning moves on to the next period.
+    /// Not inlined: one copy serves both joints (the QEMU board's flash).
+    #[inline(never)]
+    fn check(&mut self, l: &MotionLimits<T>, j: &Joint<T>) -> (Option<Fault>, T) {
+        let mut found = None;
+        let mut evidence = T::zero();
+        let mut anchor = j.previous.is_none();
+        if let Some(p) = j.previous {
+            let off = ((j.theta - self.reading) - self.moved).abs();
+            let allowed = self.slack + l.encoder_band;
+            let still = j.theta == p;
+            let frozen = still
+                && off > l.encoder_band
+                && (j.theta_d - self.reference).abs() > j.frozen_reference;
+            if off > allowed || frozen {
+                // Named by what the reading does: stands still, or moves where the torques do
+                // not move the joint.
+                found = Some(if still {
+                    Fault::FrozenEncoder
+                } else {
+                    Fault::EncoderMismatch
+                });
+            }
+            evidence = off / allowed;
+            anchor =
+                self.slack >= l.encoder_slack && (j.theta != self.reading || off <= l.encoder_band);
+        }
+        if j.previous.is_none_or(|p| j.theta != p) {
+            self.reference = j.theta_d;
+        }
+        // The next period: the speed `θ̇̂` is the observer's for its end (it has taken this
+        // period's `θ̈ T`); under a torque held through the period the joint moves
+        // `θ̇̂ T − θ̈ T²/2`.
+        let a = j.accel;
+        let t2 = l.period * l.period;
+        if anchor {
+            self.anchor(l, j.theta, j.speed);
+        } else {
+            self.step += a * t2;
+            self.step_slack += (l.model_error * a.abs() + j.unexplained) * t2;
+        }
+        self.moved += self.step - a * t2 * T::c(0.5);
+        self.slack += self.step_slack;
+        (found, evidence)
+    }
+
     /// Anchored at the reading `y` and the observer's speed `v` [rad/s].
     fn anchor(&mut self, l: &MotionLimits<T>, y: T, v: T) {
         self.reading = y;
@@ -390,46 +454,20 @@ impl<T: Real> MotionMonitor<T> {
                 return Verdict::Trip(Fault::Runaway);
             }
             // Encoder plausibility: the reading against the dead reckoning (module docs).
-            let theta_d = pick(&s.theta_d);
-            let mut anchor = previous.is_none();
-            if let Some(p) = previous {
-                let off = ((thj - r.reading) - r.moved).abs();
-                let allowed = r.slack + l.encoder_band;
-                let still = thj == pick(&p.theta);
-                let frozen = still
-                    && off > l.encoder_band
-                    && (theta_d - r.reference).abs() > pick(&l.frozen_reference);
-                if off > allowed || frozen {
-                    // Named by what the reading does: stands still, or moves where the torques
-                    // do not move the joint.
-                    implausible = Some(if still {
-                        Fault::FrozenEncoder
-                    } else {
-                        Fault::EncoderMismatch
-                    });
-                }
-                if off > self.evidence * allowed {
-                    self.evidence = off / allowed;
-                }
-                anchor = r.slack >= l.encoder_slack && (thj != r.reading || off <= l.encoder_band);
+            let joint = Joint {
+                theta: thj,
+                previous: previous.map(|p| pick(&p.theta)),
+                theta_d: pick(&s.theta_d),
+                speed: vj,
+                accel: pick(&s.accel),
+                unexplained: pick(&unexplained),
+                frozen_reference: pick(&l.frozen_reference),
+            };
+            let (found, evidence) = r.check(l, &joint);
+            implausible = implausible.or(found);
+            if evidence > self.evidence {
+                self.evidence = evidence;
             }
-            if previous.is_none_or(|p| thj != pick(&p.theta)) {
-                r.reference = theta_d;
-            }
-            // The next period: the speed `θ̇̂` is the observer's for its end (it has taken this
-            // period's `θ̈ T`); under a torque held through the period the joint moves
-            // `θ̇̂ T − θ̈ T²/2`.
-            let a = pick(&s.accel);
-            let t2 = l.period * l.period;
-            let grow = (l.model_error * a.abs() + pick(&unexplained)) * t2;
-            if anchor {
-                r.anchor(l, thj, vj);
-            } else {
-                r.step += a * t2;
-                r.step_slack += grow;
-            }
-            r.moved += r.step - a * t2 * T::c(0.5);
-            r.slack += r.step_slack;
             // Soft limit: moving towards an end closer than the stopping distance.
             // (`d ≤ v²/(2a) + margin`, multiplied out: no division.)
             let within = |d: T| (d - l.range_margin) * T::c(2.0) * pick(&l.stop_accel) <= vj * vj;

@@ -198,9 +198,8 @@ impl BoardConfig {
     #[inline(always)]
     pub fn drive(&self, ctrl: &mut Controller<f32>, now: Ticks) -> Drive<f32> {
         let motor_hz = self.motor_hz();
-        let mut drive = Drive::new(ctrl, motor_hz, now, self.moves);
+        let mut drive = Drive::new(ctrl, motor_hz, now, self.moves, self.motion);
         drive.link_timeout = self.link_timeout_s * motor_hz;
-        drive.motion = self.motion;
         drive
     }
 
