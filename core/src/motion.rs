@@ -16,13 +16,14 @@
 //! of the joint from the torques applied. From an anchor (a period's reading `y_0` and the
 //! observer's speed `θ̇̂_0`), the model's joint accelerations under the torques and piezo force
 //! applied (`θ̈_k`, the observer's prediction, `crate::observer::Observer::joint_acceleration`)
-//! are integrated as the observer integrates them: the step `s_0 = θ̇̂_0 T`,
-//! `s_{k+1} = s_k + θ̈_k T²`, the displacement `d_{k+1} = d_k + s_{k+1}`. What the model does
-//! not know bounds how far the joint may be from `d`, the slack `u`, integrated the same way
-//! from `σ_0 = (speed_error + speed_error_rel |θ̇̂_0|) T` with the growth
+//! are integrated as a torque held through each period moves the joint: the observer's step
+//! `s_{k+1} = s_k + θ̈_k T²` from `s_0 = θ̇̂_0 T` (its speed is already the period's end's), the
+//! displacement `d_{k+1} = d_k + s_{k+1} − θ̈_k T²/2`. What the model does not know bounds how
+//! far the joint may be from `d`, the slack `u`, integrated the same way from
+//! `σ_0 = (speed_error + speed_error_rel |θ̇̂_0|) T` with the growth
 //! `(model_error |θ̈_k| + (B⁻¹ f)_i) T²` a period, `f_k = coulomb_k + viscous_k |θ̇̂_k| +
-//! disturbance_k` the friction and disturbance the model lacks, through the arm's largest inverse inertia
-//! (`inertia_inv`, [`MotionLimits::for_arm`]).
+//! disturbance_k` the friction and disturbance the model lacks, through the arm's largest
+//! inverse inertia (`inertia_inv`, [`MotionLimits::for_arm`]).
 //! The reading must follow: `|(y − y_0) − d| ≤ u + encoder_band` (the band at least a few
 //! counts: a quantized reading is off its joint by up to half a count at either end). A reading
 //! that stands still while the torques move the joint (a pulled cable, a joint stalled hard),
