@@ -807,13 +807,16 @@ fn config_dump_diff_and_restore() {
     let dump = dump.replace("\nva_min = 30.0", "\nva_min = -30.0");
     let file = dir.join("dump.toml");
     std::fs::write(&file, dump.replace("\nkc = 30.0", "\nkc = 3.0")).unwrap();
-    let o = flexarm(&[
-        "--tcp",
-        &at(firmware(ours)),
-        "config",
-        "diff",
-        file.to_str().unwrap(),
-    ]);
+    let config = |what: &str, file: &std::path::Path| {
+        flexarm(&[
+            "--tcp",
+            &at(firmware(ours)),
+            "config",
+            what,
+            file.to_str().unwrap(),
+        ])
+    };
+    let o = config("diff", &file);
     let (out, err) = text(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(out.contains("kc: board 30 s, file 3 s"), "{out}");
@@ -825,13 +828,7 @@ fn config_dump_diff_and_restore() {
         )),
         "{out}"
     );
-    let o = flexarm(&[
-        "--tcp",
-        &at(firmware(ours)),
-        "config",
-        "restore",
-        file.to_str().unwrap(),
-    ]);
+    let o = config("restore", &file);
     let (out, err) = text(&o);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(

@@ -334,20 +334,21 @@ fn a_flood_of_frames_neither_holds_the_keys_nor_grows_the_view() {
 /// clock runs behind it (an emulator on a loaded host: issue 36's "(100/s)" whatever arrived).
 #[test]
 fn the_header_shows_the_rate_received_and_a_firmware_clock_behind_real_time() {
-    // A firmware at half of real time streaming every period of its 1 kHz loop: 50 frames
-    // (50 ms of its time) every 0.1 s of the host's clock, for 2 s.
-    let mut slow = View::new("stand-in on Qemu".into(), 1000, 1, 10.0);
-    let start = Instant::now();
-    let mut seq = 0u32;
-    for k in 0..20u32 {
-        let frames: Vec<_> = (0..50)
-            .map(|_| {
-                seq += 1;
-                frame(seq, u64::from(seq), [0.0; 12])
-            })
-            .collect();
-        slow.ingest_at(&frames, start + Duration::from_millis(100 * u64::from(k)));
-    }
+    // A firmware streaming every period of its 1 kHz loop, `per_batch` frames (that many ms of
+    // its time) every 0.1 s of the host's clock, for 2 s: at half of real time with 50.
+    let streamed = |per_batch: u32| {
+        let mut view = View::new("stand-in on Qemu".into(), 1000, 1, 10.0);
+        let start = Instant::now();
+        for k in 0..20u32 {
+            let frames: Vec<_> = (1..=per_batch)
+                .map(|i| k * per_batch + i)
+                .map(|seq| frame(seq, u64::from(seq), [0.0; 12]))
+                .collect();
+            view.ingest_at(&frames, start + Duration::from_millis(100 * u64::from(k)));
+        }
+        view
+    };
+    let slow = streamed(50);
     let (rate, clock) = slow.measured().unwrap();
     assert!(
         (rate - 500.0).abs() < 30.0 && (clock - 0.5).abs() < 0.03,
@@ -357,18 +358,7 @@ fn the_header_shows_the_rate_received_and_a_firmware_clock_behind_real_time() {
     assert!(s.contains("500/s received"), "{s}");
     assert!(s.contains("firmware clock 0.50× real time: behind"), "{s}");
     // At full speed: no warning.
-    let mut fast = View::new("stand-in on Qemu".into(), 1000, 1, 10.0);
-    let start = Instant::now();
-    let mut seq = 0u32;
-    for k in 0..20u32 {
-        let frames: Vec<_> = (0..100)
-            .map(|_| {
-                seq += 1;
-                frame(seq, u64::from(seq), [0.0; 12])
-            })
-            .collect();
-        fast.ingest_at(&frames, start + Duration::from_millis(100 * u64::from(k)));
-    }
+    let fast = streamed(100);
     let s = screen(&fast);
     assert!(
         s.contains("1000/s received") && !s.contains("behind"),
