@@ -248,16 +248,8 @@ pub struct Drive<T> {
 }
 
 impl<T: Real> Drive<T> {
-    /// A disarmed drive on a motor loop of `motor_hz` with the move limits `limits` and the
-    /// motion checks' `motion` (`MotionLimits::default_for` the rate and `ctrl`'s model, or a
-    /// board's); disarms `ctrl`.
-    pub fn new(
-        ctrl: &mut Controller<T>,
-        motor_hz: u32,
-        now: Ticks,
-        limits: MoveLimits<T>,
-        motion: MotionLimits<T>,
-    ) -> Self {
+    /// A disarmed drive on a motor loop of `motor_hz`; disarms `ctrl`.
+    pub fn new(ctrl: &mut Controller<T>, motor_hz: u32, now: Ticks, limits: MoveLimits<T>) -> Self {
         ctrl.set_armed(false);
         Self {
             mode: Mode::Disarmed,
@@ -277,7 +269,7 @@ impl<T: Real> Drive<T> {
             path_from: Vector2::zeros(),
             segment: 0,
             segments: 0,
-            motion,
+            motion: MotionLimits::default_for(motor_hz),
             monitor: MotionMonitor::new(),
             pending: None,
             rated: ctrl.motor.limits.tau_max,
@@ -334,7 +326,6 @@ impl<T: Real> Drive<T> {
                 theta_d: theta_hat - law.error,
                 speed: qd.xy(),
                 tau: report.command.tau,
-                accel: ctrl.observer.joint_acceleration(),
             };
             match self.monitor.check(&self.motion, &sample) {
                 Verdict::Clear => {}
@@ -933,7 +924,6 @@ impl<T: Real> Drive<T> {
             Fault::FollowingError
             | Fault::Runaway
             | Fault::FrozenEncoder
-            | Fault::EncoderMismatch
             | Fault::Overspeed
             | Fault::SoftLimit => measured.is_some(),
             Fault::Overload => {

@@ -48,14 +48,11 @@ pub enum Fault {
     SoftLimit,
     /// A motor's I²t thermal state reached its limit.
     Overload,
-    /// An encoder's reading moved where the torques applied did not move its joint (a slipping
-    /// coupling, a reversed or miscounting encoder): `crate::motion`.
-    EncoderMismatch,
 }
 
 impl Fault {
     /// Every fault, in the order of their stable numbers (1, 2, …).
-    pub const ALL: [Fault; 18] = [
+    pub const ALL: [Fault; 17] = [
         Self::NonFinite,
         Self::OutOfRange,
         Self::Stale,
@@ -73,7 +70,6 @@ impl Fault {
         Self::Overspeed,
         Self::SoftLimit,
         Self::Overload,
-        Self::EncoderMismatch,
     ];
 
     /// The fault of stable number `code` (`fault as u8`, what the command link reports).
@@ -114,7 +110,6 @@ impl Fault {
             Self::Overspeed => "overspeed",
             Self::SoftLimit => "joint at the end of its range",
             Self::Overload => "motor overload (I2t)",
-            Self::EncoderMismatch => "encoder disagrees with the motion",
         }
     }
 }

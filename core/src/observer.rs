@@ -50,8 +50,6 @@ pub struct Observer<T> {
     /// `c_f = k_s Δφ'` [V per √kg·m]: `V_f = c_fᵀ δ`.
     c_f: Vector2<T>,
     period: T,
-    /// The joint accelerations `θ̈` of the last prediction [rad/s²].
-    accel: Vector2<T>,
 }
 
 impl<T: Real> Observer<T> {
@@ -65,7 +63,6 @@ impl<T: Real> Observer<T> {
             gain_t: gain.transpose(),
             c_f,
             period,
-            accel: Vector2::zeros(),
         }
     }
 
@@ -83,13 +80,6 @@ impl<T: Real> Observer<T> {
     /// Estimated `(q, q̇)`.
     pub fn state(&self) -> (Vector4<T>, Vector4<T>) {
         (self.q, self.qd)
-    }
-
-    /// The joint accelerations `θ̈` [rad/s²] the last prediction moved the estimate with: the
-    /// model's answer to the torques and piezo force applied (`crate::motion`'s dead reckoning
-    /// integrates them).
-    pub fn joint_acceleration(&self) -> Vector2<T> {
-        self.accel
     }
 
     /// Measurement residual `y − C x̂` (innovation).
@@ -146,7 +136,6 @@ impl<T: Real> Observer<T> {
         if all_finite([q.x, q.y, q.z, q.w, qd.x, qd.y, qd.z, qd.w]) {
             self.q = q;
             self.qd = qd;
-            self.accel = qdd.xy();
             Ok(())
         } else {
             Err(Fault::Singular)

@@ -62,10 +62,9 @@ pub fn qemu_patch() -> PiezoPatch<f32> {
     }
 }
 
-/// The motor loop's tick count at boot: 0, except in the uptime test builds (the `u64` count
-/// wraps 100 periods, 1 s, into the boot move: at its cruise).
+/// The motor loop's tick count at boot: 0, except in the uptime test builds.
 pub const START_TICK: Ticks = Ticks(if cfg!(feature = "start-before-wrap") {
-    u64::MAX - 99
+    u64::MAX - 299
 } else if cfg!(feature = "start-at-30-days") {
     30 * 86_400 * MOTOR_HZ as u64
 } else {

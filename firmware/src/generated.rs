@@ -14,7 +14,7 @@ use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::drive::MoveLimits;
 use flexarm_core::motion::{MotionLimits, Thermal};
 use flexarm_core::params::{ArmParams, Gains, Limits, ModalData};
-use flexarm_core::{Matrix2, Vector2, Vector4};
+use flexarm_core::{Vector2, Vector4};
 use flexarm_link::msg::Board;
 use flexarm_machine::BoardConfig;
 
@@ -115,17 +115,9 @@ pub const HARDWARE: BoardConfig = BoardConfig {
         runaway_torque: Vector2::new(1e0, 1e0),
         runaway_error: 1e-2,
         runaway_periods: 10,
-        period: 1e-3,
-        encoder_band: 1.5e-3,
-        speed_error: 1e-2,
-        speed_error_rel: 4e-2,
-        model_error: 2.5e-1,
-        coulomb: Vector2::new(7e-2, 7e-2),
-        viscous: Vector2::new(3e-2, 3e-2),
-        disturbance: Vector2::new(1e-1, 1e-1),
-        inertia_inv: Matrix2::new(2.0005677e0, 2.0102494e0, 2.0102494e0, 7.064745e0),
-        encoder_slack: 1e-2,
-        frozen_reference: Vector2::new(2.2777778e-3, 6.5e-3),
+        frozen_torque: Vector2::new(3e0, 3e0),
+        frozen_periods: 20,
+        frozen_step: 1e-4,
         range_min: Vector2::new(-3.1415927e0, -2.8e0),
         range_max: Vector2::new(3.1415927e0, 2.8e0),
         stop_accel: Vector2::new(1e1, 1e1),
@@ -155,7 +147,7 @@ pub const HARDWARE: BoardConfig = BoardConfig {
     amplifier_debounce: 3,
 };
 /// `BoardConfig::hash` of [`HARDWARE`], the handshake's `params_hash`.
-pub const HARDWARE_HASH: u32 = 0xa5a585c0;
+pub const HARDWARE_HASH: u32 = 0x7506f2e8;
 
 /// Everything the QEMU board boots with (`flexarm_machine::BoardConfig::for_board` on this
 /// model): its hash is [`QEMU_HASH`].
@@ -189,17 +181,9 @@ pub const QEMU: BoardConfig = BoardConfig {
         runaway_torque: Vector2::new(1e0, 1e0),
         runaway_error: 2.205e-2,
         runaway_periods: 2,
-        period: 1e-2,
-        encoder_band: 1.5e-3,
-        speed_error: 1e-2,
-        speed_error_rel: 4e-2,
-        model_error: 2.5e-1,
-        coulomb: Vector2::new(7e-2, 7e-2),
-        viscous: Vector2::new(3e-2, 3e-2),
-        disturbance: Vector2::new(1e-1, 1e-1),
-        inertia_inv: Matrix2::new(2.0005677e0, 2.0102494e0, 2.0102494e0, 7.064745e0),
-        encoder_slack: 1e-2,
-        frozen_reference: Vector2::new(3.215e-3, 1.2525001e-2),
+        frozen_torque: Vector2::new(3e0, 3e0),
+        frozen_periods: 3,
+        frozen_step: 1e-3,
         range_min: Vector2::new(-3.1415927e0, -2.8e0),
         range_max: Vector2::new(3.1415927e0, 2.8e0),
         stop_accel: Vector2::new(1e1, 1e1),
@@ -229,4 +213,4 @@ pub const QEMU: BoardConfig = BoardConfig {
     amplifier_debounce: 3,
 };
 /// `BoardConfig::hash` of [`QEMU`], the handshake's `params_hash`.
-pub const QEMU_HASH: u32 = 0xc71ff7cf;
+pub const QEMU_HASH: u32 = 0x3177e9f8;

@@ -20,7 +20,7 @@ const EXPECTED_FAULT: Option<Fault> = if cfg!(feature = "inject-nan") {
 } else if cfg!(feature = "inject-no-crystal") {
     Some(Fault::Clock)
 } else if cfg!(feature = "inject-reversed-encoder") {
-    Some(Fault::EncoderMismatch)
+    Some(Fault::Runaway)
 } else if cfg!(feature = "inject-frozen-encoder") {
     Some(Fault::FrozenEncoder)
 } else {

@@ -301,7 +301,7 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
          use flexarm_core::drive::MoveLimits;\n\
          use flexarm_core::motion::{{MotionLimits, Thermal}};\n\
          use flexarm_core::params::{{ArmParams, Gains, Limits, ModalData}};\n\
-         use flexarm_core::{{Matrix2, Vector2, Vector4}};\n\
+         use flexarm_core::{{Vector2, Vector4}};\n\
          use flexarm_link::msg::Board;\n\
          use flexarm_machine::BoardConfig;\n\
          \n\
@@ -417,10 +417,6 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
 fn config_literal(c: &BoardConfig, gain: &str) -> String {
     let f = |x: f32| format!("{x:e}");
     let v2 = |x: Vector2<f32>| format!("Vector2::new({}, {})", f(x.x), f(x.y));
-    let m2 = |m: flexarm_core::Matrix2<f32>| {
-        let (a, b, c, d) = (m[(0, 0)], m[(0, 1)], m[(1, 0)], m[(1, 1)]);
-        format!("Matrix2::new({}, {}, {}, {})", f(a), f(b), f(c), f(d))
-    };
     let v4 = |x: flexarm_core::Vector4<f32>| {
         format!(
             "Vector4::new({}, {}, {}, {})",
@@ -462,17 +458,9 @@ fn config_literal(c: &BoardConfig, gain: &str) -> String {
         runaway_torque: {runaway_torque},
         runaway_error: {runaway_error},
         runaway_periods: {runaway_periods},
-        period: {period},
-        encoder_band: {encoder_band},
-        speed_error: {speed_error},
-        speed_error_rel: {speed_error_rel},
-        model_error: {model_error},
-        coulomb: {coulomb},
-        viscous: {viscous},
-        disturbance: {disturbance},
-        inertia_inv: {inertia_inv},
-        encoder_slack: {encoder_slack},
-        frozen_reference: {frozen_reference},
+        frozen_torque: {frozen_torque},
+        frozen_periods: {frozen_periods},
+        frozen_step: {frozen_step},
         range_min: {range_min},
         range_max: {range_max},
         stop_accel: {stop_accel},
@@ -520,17 +508,9 @@ fn config_literal(c: &BoardConfig, gain: &str) -> String {
         runaway_torque = v2(m.runaway_torque),
         runaway_error = f(m.runaway_error),
         runaway_periods = m.runaway_periods,
-        period = f(m.period),
-        encoder_band = f(m.encoder_band),
-        speed_error = f(m.speed_error),
-        speed_error_rel = f(m.speed_error_rel),
-        model_error = f(m.model_error),
-        coulomb = v2(m.coulomb),
-        viscous = v2(m.viscous),
-        disturbance = v2(m.disturbance),
-        inertia_inv = m2(m.inertia_inv),
-        encoder_slack = f(m.encoder_slack),
-        frozen_reference = v2(m.frozen_reference),
+        frozen_torque = v2(m.frozen_torque),
+        frozen_periods = m.frozen_periods,
+        frozen_step = f(m.frozen_step),
         range_min = v2(m.range_min),
         range_max = v2(m.range_max),
         stop_accel = v2(m.stop_accel),

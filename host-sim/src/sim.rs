@@ -398,12 +398,9 @@ pub struct Summary {
     /// The largest tracking error the motion checks saw, `|θ_measured − θ_d|` [rad], and the
     /// largest estimated joint speed [rad/s]: the evidence for their thresholds.
     pub motion_peaks: (f64, f64),
-    /// The longest streak the runaway check counted over both joints [motor periods]: a
-    /// healthy run's must stay short of its window.
-    pub motion_streak: u32,
-    /// The encoder plausibility check's largest evidence (`MotionMonitor::encoder_evidence`,
-    /// 1 trips): a healthy run's must stay well below 1.
-    pub encoder_evidence: f64,
+    /// The longest streaks the trend checks counted, `(runaway, frozen)` over both joints
+    /// [motor periods]: a healthy run's must stay short of the windows.
+    pub motion_streaks: (u32, u32),
 }
 
 /// A piezo law of issue 35 with its gains ([`SimConfig::piezo_law`]).
@@ -510,7 +507,7 @@ impl SimConfig {
         c.gains = self.gains;
         c.piezo = piezo;
         c.limits = self.limits;
-        c.motion = MotionLimits::default_for(motor_hz, &Model::new(self.arm.cast::<f32>()));
+        c.motion = MotionLimits::default_for(motor_hz);
         c.piezo_hz = piezo_hz;
         c.motor_divider = divider;
         c.print_every = (motor_hz / 10).max(1);
@@ -796,11 +793,12 @@ fn watch(
     let e = f64::from((s.theta - s.theta_d).abs().max());
     let v = f64::from(s.speed.abs().max());
     sum.motion_peaks = (sum.motion_peaks.0.max(e), sum.motion_peaks.1.max(v));
-    let runaway = monitor.streaks();
-    sum.motion_streak = sum.motion_streak.max(runaway[0].max(runaway[1]));
-    sum.encoder_evidence = sum
-        .encoder_evidence
-        .max(f64::from(monitor.encoder_evidence()));
+    let (runaway, frozen) = monitor.streaks();
+    let longest = |s: [u32; 2]| s[0].max(s[1]);
+    sum.motion_streaks = (
+        sum.motion_streaks.0.max(longest(runaway)),
+        sum.motion_streaks.1.max(longest(frozen)),
+    );
 }
 
 /// The indices of a trace (Eqs. 37 and 38 over its whole length, the means over its last
@@ -1017,7 +1015,6 @@ fn run_firmware(
             theta_d,
             speed: ctrl.estimate().1.xy(),
             tau: p.command.tau,
-            accel: ctrl.observer.joint_acceleration(),
         };
         watch(
             &mut sum,
@@ -1081,7 +1078,7 @@ fn run_paper(
     let (mut tau, mut v_a, mut v_f) = (Vector2::<f64>::zeros(), 0.0_f64, 0.0_f64);
     // Measurements held back one period when `sensors.delay`.
     let mut held: Option<(State<f64>, f64)> = None;
-    let motion = MotionLimits::<f32>::default_for(cfg.rates.motor_hz.round() as u32, &motor.model);
+    let motion = MotionLimits::<f32>::default_for(cfg.rates.motor_hz.round() as u32);
     let mut monitor = MotionMonitor::<f32>::new();
     let mut film_held: Option<f64> = None;
     for k in 0..steps {
@@ -1118,18 +1115,11 @@ fn run_paper(
                     &target,
                 )
                 .map_err(|fault| SimError::Fault { fault, t })?;
-            // The model's joint accelerations under the torques and the piezo force, `u = [τ,
-            // C_a V_a]` (Eq. 18), as an observer's prediction has them.
-            let (q, qd) = (seen.q.cast::<f32>(), seen.qd.cast::<f32>());
-            let f = cfg.patch.to_f32().c_a() * v_a as f32;
-            let u = Vector4::new(out.tau.x, out.tau.y, f.x, f.y);
-            let accel = motor.model.acceleration(&q, &qd, &u).unwrap_or_default();
             let sample = MotionSample {
-                theta: q.xy(),
+                theta: Vector2::new(seen.q.x, seen.q.y).cast::<f32>(),
                 theta_d: target.q,
-                speed: qd.xy(),
+                speed: Vector2::new(seen.qd.x, seen.qd.y).cast::<f32>(),
                 tau: out.tau,
-                accel: accel.xy(),
             };
             watch(&mut sum, &mut monitor, &motion, &sample, t, motor_dt);
             tau = out.tau.cast::<f64>();

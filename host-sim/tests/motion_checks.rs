@@ -7,7 +7,7 @@ use flexarm_core::control::piezo::PiezoGains;
 use flexarm_core::motion::MotionLimits;
 use flexarm_core::trajectory::{Circle, JointTrajectory, Trapezoid};
 use flexarm_sim::montecarlo;
-use flexarm_sim::sim::{SimConfig, Summary, simulate};
+use flexarm_sim::sim::{SimConfig, simulate};
 use flexarm_sim::study::{Options, paper_cases, run};
 use flexarm_sim::truth_plant::TruthSpec;
 
@@ -18,18 +18,17 @@ fn the_papers_study_trips_no_motion_check() {
         ..Options::default()
     };
     let out = run(paper_cases(&opts).unwrap(), false, false).unwrap();
-    let (mut err, mut speed, mut streaks) = (0.0f64, 0.0f64, (0, 0.0));
+    let (mut err, mut speed, mut streaks) = (0.0f64, 0.0f64, (0, 0));
     for o in &out {
         let s = &o.summary;
         println!(
-            "{:16} {:20} trip {:?}, worst |θ − θ_d| {:.2e} rad, worst speed {:.2} rad/s, runaway streak {}, encoder evidence {:.2}",
+            "{:16} {:20} trip {:?}, worst |θ − θ_d| {:.2e} rad, worst speed {:.2} rad/s, streaks {:?}",
             o.case.scenario,
             o.case.controller,
             s.motion_trip,
             s.motion_peaks.0,
             s.motion_peaks.1,
-            s.motion_streak,
-            s.encoder_evidence
+            s.motion_streaks
         );
         // The paper's printed gains leave joint 2 without stiffness: on the truth plant's
         // friction the arm ends 0.36 rad off, which a drive must fault.
@@ -52,10 +51,10 @@ fn the_papers_study_trips_no_motion_check() {
             );
             err = err.max(s.motion_peaks.0);
             speed = speed.max(s.motion_peaks.1);
-            streaks = longest(streaks, s);
+            streaks = longest(streaks, s.motion_streaks);
         }
     }
-    let limits = MotionLimits::<f32>::default_for(1000, &paper());
+    let limits = MotionLimits::<f32>::default_for(1000);
     let (following, overspeed) = (f64::from(limits.following.x), f64::from(limits.speed.x));
     println!(
         "study: {} runs, worst tracking error {err:.2e} rad (limit {following:.3}: {:.1}x), worst speed {speed:.2} rad/s (limit {overspeed:.1}: {:.1}x)",
@@ -68,21 +67,16 @@ fn the_papers_study_trips_no_motion_check() {
     assert_half_the_windows(&limits, streaks);
 }
 
-/// The runaway check's longer streak and the encoder plausibility check's larger evidence.
-fn longest(a: (u32, f64), s: &Summary) -> (u32, f64) {
-    (a.0.max(s.motion_streak), a.1.max(s.encoder_evidence))
+/// The longer of two `(runaway, frozen)` streaks, per check.
+fn longest(a: (u32, u32), b: (u32, u32)) -> (u32, u32) {
+    (a.0.max(b.0), a.1.max(b.1))
 }
 
-/// The runaway check's longest healthy streak reaches at most half its window, the encoder
-/// plausibility check's evidence at most 0.8 of its trip level (1: the Monte Carlo of the
-/// controller's model with its parameters ±20 % off reaches 0.75, the paper's study 0.46).
-fn assert_half_the_windows(limits: &MotionLimits<f32>, worst: (u32, f64)) {
-    let window = limits.runaway_periods;
-    println!(
-        "longest runaway streak {} periods (window {window}), largest encoder evidence {:.2} (trips at 1)",
-        worst.0, worst.1
-    );
-    assert!(2 * worst.0 <= window && worst.1 <= 0.8);
+/// The trend checks' longest healthy streaks reach at most half their windows.
+fn assert_half_the_windows(limits: &MotionLimits<f32>, streaks: (u32, u32)) {
+    let windows = (limits.runaway_periods, limits.frozen_periods);
+    println!("longest streaks (runaway, frozen) {streaks:?} periods, windows {windows:?}");
+    assert!(2 * streaks.0 <= windows.0 && 2 * streaks.1 <= windows.1);
 }
 
 /// The QEMU board's loop (motor 100 Hz with the 1 kHz gains, piezo 1 kHz, its encoders and
@@ -98,8 +92,8 @@ fn the_qemu_boards_moves_trip_no_motion_check() {
         JointTrajectory::Trapezoid(Trapezoid::paper()),
         JointTrajectory::Circle(circle),
     ];
-    let limits = MotionLimits::<f32>::default_for(100, &paper());
-    let mut streaks = (0, 0.0);
+    let limits = MotionLimits::<f32>::default_for(100);
+    let mut streaks = (0, 0);
     for traj in &moves {
         let cfg = SimConfig {
             piezo: Some(PiezoGains {
@@ -111,8 +105,8 @@ fn the_qemu_boards_moves_trip_no_motion_check() {
         };
         let (s, _) = simulate(&cfg, traj, false).unwrap();
         println!(
-            "QEMU board: trip {:?}, worst |θ − θ_d| {:.2e} rad, runaway streak {}, encoder evidence {:.2}",
-            s.motion_trip, s.motion_peaks.0, s.motion_streak, s.encoder_evidence
+            "QEMU board: trip {:?}, worst |θ − θ_d| {:.2e} rad, streaks {:?}",
+            s.motion_trip, s.motion_peaks.0, s.motion_streaks
         );
         assert_eq!(s.motion_trip, None);
         // The runaway's error condition is not met by healthy tracking at 100 Hz: the circle's
@@ -124,7 +118,7 @@ fn the_qemu_boards_moves_trip_no_motion_check() {
             limits.runaway_error,
             s.motion_peaks.0
         );
-        streaks = longest(streaks, &s);
+        streaks = longest(streaks, s.motion_streaks);
     }
     assert_half_the_windows(&limits, streaks);
 }
@@ -143,8 +137,10 @@ fn no_false_trip_in_1000_monte_carlo_runs() {
     );
     assert_eq!(runs.len(), 1000);
     assert_eq!(trips, 0);
-    let streaks = runs.iter().fold((0, 0.0), |a, s| longest(a, s));
-    assert_half_the_windows(&MotionLimits::default_for(1000, &paper()), streaks);
+    let streaks = runs
+        .iter()
+        .fold((0, 0), |a, s| longest(a, s.motion_streaks));
+    assert_half_the_windows(&MotionLimits::default_for(1000), streaks);
 }
 
 /// 200 runs on the truth plant (six modes, real drives and amplifier) with every mode's
@@ -162,11 +158,8 @@ fn no_false_trip_in_200_truth_plant_monte_carlo_runs() {
     );
     assert_eq!(runs.len(), 200);
     assert_eq!(trips, 0);
-    let streaks = runs.iter().fold((0, 0.0), |a, s| longest(a, s));
-    assert_half_the_windows(&MotionLimits::default_for(1000, &paper()), streaks);
-}
-
-/// The paper's arm's model.
-fn paper<T: flexarm_core::Real>() -> flexarm_core::model::Model<T> {
-    flexarm_core::model::Model::new(flexarm_core::ArmParams::default())
+    let streaks = runs
+        .iter()
+        .fold((0, 0), |a, s| longest(a, s.motion_streaks));
+    assert_half_the_windows(&MotionLimits::default_for(1000), streaks);
 }

@@ -108,8 +108,7 @@ fn a_path_runs_segment_by_segment_through_its_waypoints() {
         1e-3,
         gain(&GAIN_1KHZ),
     );
-    let motion = flexarm_core::motion::MotionLimits::default_for(1000, &ctrl.motor.model);
-    let mut drive = Drive::new(&mut ctrl, 1000, Ticks(0), MoveLimits::default(), motion);
+    let mut drive = Drive::new(&mut ctrl, 1000, Ticks(0), MoveLimits::default());
     let points = [(0.3, 0.2, 1.0), (0.5, -0.1, 1.0), (0.2, 0.0, 1.5)].map(|(a, b, dt)| Waypoint {
         theta: Vector2::new(a, b),
         dt,

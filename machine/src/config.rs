@@ -133,7 +133,7 @@ impl BoardConfig {
                 v_a_min: -v_a_max,
                 ..Limits::default()
             },
-            motion: MotionLimits::default_for(motor_hz, &flexarm_core::model::Model::new(arm)),
+            motion: MotionLimits::default_for(motor_hz),
             moves: MoveLimits::default(),
             observer_gain,
             piezo_hz,
@@ -198,8 +198,9 @@ impl BoardConfig {
     #[inline(always)]
     pub fn drive(&self, ctrl: &mut Controller<f32>, now: Ticks) -> Drive<f32> {
         let motor_hz = self.motor_hz();
-        let mut drive = Drive::new(ctrl, motor_hz, now, self.moves, self.motion);
+        let mut drive = Drive::new(ctrl, motor_hz, now, self.moves);
         drive.link_timeout = self.link_timeout_s * motor_hz;
+        drive.motion = self.motion;
         drive
     }
 
@@ -270,18 +271,8 @@ impl BoardConfig {
         x(c.runaway_speed);
         v2(&mut x, &c.runaway_torque);
         x(c.runaway_error);
-        for v in [c.period, c.encoder_band, c.speed_error, c.speed_error_rel] {
-            x(v);
-        }
-        for v in [c.model_error, c.encoder_slack] {
-            x(v);
-        }
-        for v in [c.coulomb, c.viscous, c.disturbance, c.frozen_reference] {
-            v2(&mut x, &v);
-        }
-        for v in c.inertia_inv.iter() {
-            x(*v);
-        }
+        v2(&mut x, &c.frozen_torque);
+        x(c.frozen_step);
         for v in [c.range_min, c.range_max, c.stop_accel] {
             v2(&mut x, &v);
         }
@@ -305,6 +296,7 @@ impl BoardConfig {
             self.board as u32,
             self.law as u32,
             c.runaway_periods,
+            c.frozen_periods,
             self.piezo_hz,
             self.motor_divider,
             self.print_every,

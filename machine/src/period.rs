@@ -217,10 +217,6 @@ fn due(countdown: &mut u32, every: u32) -> bool {
 pub fn motor_step(m: &mut MotorLoop, c: &mut Control, d: &mut Drive<f32>, s: &Sensed) -> Period {
     let tick = m.now;
     m.now = tick.next();
-    // The uptime run's mutant: a time base that jumps 0.5 s where the count wraps.
-    if cfg!(feature = "mutant-wrap-jump") && m.now == Ticks(0) {
-        m.now = Ticks(u64::from(m.print_every) * 5);
-    }
     let print = due(&mut m.print_countdown, m.print_every);
     let stream = due(&mut m.stream_countdown, c.stream_every) && c.stream_every != 0;
     if let Err(f) = m.amplifier.update(m.enabled, s.amplifier_fault) {

@@ -94,12 +94,10 @@ fn the_nominal_move_runs_clean() {
     assert!((b.theta() - Vector2::new(1.0, 1.0)).abs().max() < 1e-3);
 }
 
-/// Joint 1's encoder counts the other way: positive feedback, the reading running against the
-/// motion the torques explain. Measured: EncoderMismatch 60 ms after the move's start, joint 1
-/// 0.0043 rad from its start, 0.22 rad/s at most, 0.011 rad of coast (the Runaway check, which
-/// caught it before the encoder check existed: 112 ms, 0.032 rad).
+/// Joint 1's encoder counts the other way: positive feedback. Measured: Runaway 112 ms after the
+/// move's start, joint 1 0.032 rad from its start, 0.83 rad/s at most, 0.041 rad of coast.
 #[test]
-fn a_reversed_encoder_is_caught_and_cut_in_category_0() {
+fn a_reversed_encoder_is_caught_as_a_runaway_and_cut_in_category_0() {
     let b = moving(Injection::Reversed, 1.0);
     let (t, at) = b.fault_at.unwrap();
     let end = b.theta();
@@ -111,19 +109,19 @@ fn a_reversed_encoder_is_caught_and_cut_in_category_0() {
         b.peak_speed,
         (end - at).abs().max()
     );
-    assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::EncoderMismatch));
-    assert_eq!(Fault::EncoderMismatch.stop_category(), 0);
-    assert!(t - 0.1 < 0.1, "detected within 100 ms");
-    assert!(at.x.abs() < 0.01, "joint 1 travelled under 0.01 rad");
-    assert!(b.peak_speed < 0.5);
-    assert!((end - at).abs().max() < 0.02, "coast under 0.02 rad");
+    assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::Runaway));
+    assert_eq!(Fault::Runaway.stop_category(), 0);
+    assert!(t - 0.1 < 0.15, "detected within 150 ms");
+    assert!(at.x.abs() < 0.05, "joint 1 travelled under 0.05 rad");
+    assert!(b.peak_speed < 1.0);
+    assert!((end - at).abs().max() < 0.06, "coast under 0.06 rad");
     assert!(!b.rig.board.sim.arm.enabled());
 }
 
-/// Joint 2's encoder freezes mid-move (0.8 s, at 0.67 rad/s). Measured: FrozenEncoder 11 ms
-/// later, joint 2 0.0074 rad on, 0.70 rad/s at most, 0.035 rad of coast (the 50 ms brake).
+/// Joint 2's encoder freezes mid-move (0.8 s). Measured: FrozenEncoder 39 ms later, 1.17 rad/s
+/// at most (the controller, seeing no motion, pushes harder), 0.056 rad of coast.
 #[test]
-fn a_frozen_encoder_mid_move_is_caught_within_20_ms() {
+fn a_frozen_encoder_mid_move_is_caught_within_50_ms() {
     let mut b = moving(Injection::FrozenFrom(0.8), 0.0);
     b.run(0.7);
     let frozen_at = b.theta();
@@ -139,17 +137,17 @@ fn a_frozen_encoder_mid_move_is_caught_within_20_ms() {
         (end - at).abs().max()
     );
     assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::FrozenEncoder));
-    assert!(t - 0.8 < 0.02, "detected within 20 ms");
-    assert!((at.y - frozen_at.y).abs() < 0.02);
-    assert!(b.peak_speed < 0.8);
-    assert!((end - at).abs().max() < 0.05);
+    assert!(t - 0.8 < 0.05, "detected within 50 ms");
+    assert!((at.y - frozen_at.y).abs() < 0.06);
+    assert!(b.peak_speed < 1.3);
+    assert!((end - at).abs().max() < 0.08);
 }
 
 /// Joint 1 hits a rigid obstacle at 0.3 rad mid-move: the encoder stands still under a growing
-/// torque, which the encoder check cannot tell from a pulled cable (its name says so).
-/// Measured: 5 ms after contact; no coast (the obstacle holds it).
+/// torque, which the frozen-encoder check cannot tell from a pulled cable (its name says so).
+/// Measured: 25 ms after contact; no coast (the obstacle holds it).
 #[test]
-fn a_stall_against_an_obstacle_is_cut_within_10_ms() {
+fn a_stall_against_an_obstacle_is_cut_within_40_ms() {
     let b = moving(Injection::Wall(0.3), 1.5);
     let (t, at) = b.fault_at.unwrap();
     // Contact: joint 1 reaches 0.3 rad at the nominal move's time.
@@ -166,16 +164,16 @@ fn a_stall_against_an_obstacle_is_cut_within_10_ms() {
         at.x
     );
     assert_eq!(b.rig.control.ctrl.fault(), Some(Fault::FrozenEncoder));
-    assert!(t - contact < 0.01 && t > contact);
+    assert!(t - contact < 0.04 && t > contact);
     assert!((b.theta().x - 0.3).abs() < 1e-3);
 }
 
-/// The following-error check alone (the encoder check off): the same obstacle trips it
+/// The following-error check alone (the frozen-encoder check off): the same obstacle trips it
 /// once joint 1 is 0.05 rad behind.
 #[test]
 fn the_following_error_trips_at_its_limit() {
     let mut b = Bench::new();
-    b.rig.drive.motion.encoder_band = f32::INFINITY;
+    b.rig.drive.motion.frozen_periods = u32::MAX;
     b.rig.board.injection = Injection::Wall(0.3);
     b.rig.arm().unwrap();
     b.rig.start(&trapezoid([1.0, 1.0], 2.0, 0.5)).unwrap();
@@ -296,41 +294,30 @@ fn an_overloaded_motor_stops_in_category_1_and_clears_only_when_cool() {
     );
 }
 
-/// Holding still, touched: 0.1 N·m on each joint for 0.1 s, within the friction and
-/// disturbance the encoder check allows for, moves the arm and trips nothing; knocked: 2 N·m
-/// for 0.1 s moves it where its torques do not, which the encoder check cannot tell from a
-/// slipping coupling: `EncoderMismatch`, category 0 (measured: 30 ms, 7.1 mrad; a collision
-/// detector too). (A steady push is another matter: with the observer and no integral action
-/// the held pose drifts under it, about 0.05 rad/s per N·m on joint 1; docs/safety.md.)
+/// Holding still, tapped: 2 N·m on each joint for 0.1 s, the joints knocked off their pose and
+/// brought back, the frozen-encoder check's torque reached while the encoders move. No check
+/// trips. (A steady push is another matter: with the observer and no integral action the held
+/// pose drifts under it, about 0.05 rad/s per N·m on joint 1, until the following error trips,
+/// which is right for a pose the drive cannot hold; docs/safety.md.)
 #[test]
-fn holding_a_touch_does_not_trip_and_a_knock_does() {
-    let held = |push: f32| {
-        let mut b = Bench::new();
-        b.rig.arm().unwrap();
-        let mut off: f32 = 0.0;
-        for k in 0..2000 {
-            // The push adds to the torque this motor period commands.
-            let push = if (500..600).contains(&k) { push } else { 0.0 };
-            b.rig.board.push = Vector2::new(push, -push);
-            b.period();
-            off = off.max(b.theta().abs().max());
-            if b.rig.control.ctrl.fault().is_some() {
-                return (b.rig.control.ctrl.fault(), off, k);
-            }
-        }
-        (None, off, 2000)
-    };
-    let (fault, off, _) = held(0.1);
-    println!("touched: moved {off:.5} rad, no fault");
-    assert_eq!(fault, None);
-    assert!(off > 1e-4, "the touch moved the arm: {off}");
-    let (fault, off, k) = held(2.0);
+fn holding_through_a_tap_does_not_trip() {
+    let mut b = Bench::new();
+    b.rig.arm().unwrap();
+    let mut off: f32 = 0.0;
+    for k in 0..2000 {
+        // The tap adds to the torque this motor period commands.
+        let tap = if (500..600).contains(&k) { 2.0 } else { 0.0 };
+        b.rig.board.push = Vector2::new(tap, -tap);
+        b.period();
+        off = off.max(b.theta().abs().max());
+    }
     println!(
-        "knocked: {fault:?} after {} ms, moved {off:.4} rad",
-        k - 500
+        "tapped: knocked {off:.4} rad off, back to {:.5} rad",
+        b.theta().abs().max()
     );
-    assert_eq!(fault, Some(Fault::EncoderMismatch));
-    assert!(k < 540 && off < 0.01, "{k} {off}");
+    assert_eq!(b.rig.control.ctrl.fault(), None);
+    assert!(off > 0.005, "the tap moved the arm: {off}");
+    assert!(b.theta().abs().max() < 0.02);
 }
 
 /// The I²t model against its closed form: at the peak torque r·τ_c from cold the state is
@@ -339,7 +326,7 @@ fn holding_a_touch_does_not_trip_and_a_knock_does() {
 #[test]
 fn the_thermal_model_is_its_closed_form() {
     use flexarm_core::motion::{MotionLimits, MotionMonitor};
-    let l = MotionLimits::<f64>::default_for(1000, &paper());
+    let l = MotionLimits::<f64>::default_for(1000);
     let mut m = MotionMonitor::<f64>::new();
     let tau = Vector2::new(10.0, 0.0);
     let mut t = 0.0;
@@ -383,134 +370,76 @@ fn the_checks_see_the_steps_own_reference() {
     assert!(worst < 1e-5, "{worst}");
 }
 
-/// The runaway check's window at the QEMU board's 100 Hz, on samples fed to the monitor: one
+/// The trend checks' windows at the QEMU board's 100 Hz, on samples fed to the monitor: one
 /// period of a joint speeding up against its torque does not trip (at one period's window the
-/// link session's circle tripped on the firmware), two do.
+/// link session's circle tripped on the firmware), two do; a reading that stands still under
+/// a torque counts only while the reference moves (a joint turning round with its reference
+/// stays on one count for tens of milliseconds), and trips on the third period.
 #[test]
-fn the_runaway_check_judges_a_trend_not_a_sample() {
+fn the_trend_checks_judge_trends_not_samples() {
     use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
-    let mut l = MotionLimits::<f32>::default_for(100, &paper());
-    assert_eq!(l.runaway_periods, 2);
-    // The encoder checks off: these samples' speeds jump without an acceleration.
-    l.encoder_band = f32::INFINITY;
+    let l = MotionLimits::<f32>::default_for(100);
+    assert_eq!((l.runaway_periods, l.frozen_periods), (2, 3));
     // The runaway's error threshold grows as K_p shrinks on a slow loop (0.01 rad from the
     // velocity loop's 220.5 Hz up).
     let scale = flexarm_core::params::gain_scale(100) as f32;
     assert!((l.runaway_error - 0.01 / scale).abs() < 1e-7 && l.runaway_error > 0.022);
-    assert_eq!(
-        MotionLimits::<f32>::default_for(1000, &paper()).runaway_error,
-        0.01
-    );
-    let sample = |off: f32, speed: f32, tau: f32| MotionSample {
-        theta: Vector2::new(off, 0.0),
-        theta_d: Vector2::zeros(),
+    assert_eq!(MotionLimits::<f32>::default_for(1000).runaway_error, 0.01);
+    let sample = |theta: f32, theta_d: f32, speed: f32, tau: f32| MotionSample {
+        theta: Vector2::new(theta, 0.0),
+        theta_d: Vector2::new(theta_d, 0.0),
         speed: Vector2::new(speed, 0.0),
         tau: Vector2::new(tau, 0.0),
-        accel: Vector2::zeros(),
     };
-    // 0.03 rad off, speeding up from 0.3 rad/s against −2 N·m; 0.02 rad off is within a
-    // 100 Hz loop's tracking.
+    // Runaway: 0.03 rad off, speeding up from 0.3 rad/s against −2 N·m; 0.02 rad off is
+    // within a 100 Hz loop's tracking.
     let mut m = MotionMonitor::new();
+    let calm = sample(0.0, 0.0, 0.0, 0.0);
+    let runaway = |v: f32| sample(0.03, 0.0, v, -2.0);
+    let near = |v: f32| sample(0.02, 0.0, v, -2.0);
     for v in [0.3, 0.4, 0.5, 0.6] {
-        assert_eq!(m.check(&l, &sample(0.02, v, -2.0)), Verdict::Clear);
+        assert_eq!(m.check(&l, &near(v)), Verdict::Clear);
     }
-    let calm = sample(0.0, 0.0, 0.0);
     assert_eq!(m.check(&l, &calm), Verdict::Clear);
-    assert_eq!(m.check(&l, &sample(0.03, 0.3, -2.0)), Verdict::Clear);
+    assert_eq!(m.check(&l, &runaway(0.3)), Verdict::Clear);
     assert_eq!(m.check(&l, &calm), Verdict::Clear);
-    assert_eq!(m.check(&l, &sample(0.03, 0.3, -2.0)), Verdict::Clear);
+    assert_eq!(m.check(&l, &runaway(0.3)), Verdict::Clear);
+    assert_eq!(m.check(&l, &runaway(0.4)), Verdict::Trip(Fault::Runaway));
+    // Frozen: 4 N·m, the reading still; the reference still, then moving at 0.2 rad/s.
+    let mut m = MotionMonitor::new();
+    for _ in 0..10 {
+        assert_eq!(m.check(&l, &sample(0.1, 0.1, 0.0, 4.0)), Verdict::Clear);
+    }
+    let moving = |k: f32| sample(0.1, 0.1 + 0.002 * k, 0.0, 4.0);
+    for k in 1..3 {
+        assert_eq!(m.check(&l, &moving(k as f32)), Verdict::Clear);
+    }
     assert_eq!(
-        m.check(&l, &sample(0.03, 0.4, -2.0)),
-        Verdict::Trip(Fault::Runaway)
+        m.check(&l, &moving(3.0)),
+        Verdict::Trip(Fault::FrozenEncoder)
     );
-}
-
-/// The encoder plausibility check on samples fed to the monitor at 1 kHz, joint 1 alone, the
-/// joint accelerating at 2 rad/s² under 2 N·m from rest: a reading that follows the joint to
-/// the count passes for a second (1 rad); one that stands still trips `FrozenEncoder` before
-/// the joint has moved 5 mrad; one that runs the other way trips `EncoderMismatch` as soon.
-/// Under a torque within the check's friction allowance (0.1 N·m, the model's 0.13 rad/s²) a
-/// joint stuck by its friction is no fault while its reference holds, and a still reading
-/// trips `FrozenEncoder` once the reference has moved `frozen_reference` (2.3 mrad) from it.
-#[test]
-fn the_encoder_check_holds_the_reading_to_the_physics() {
-    use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
-    let l = MotionLimits::<f32>::default_for(1000, &paper());
-    let t = 1e-3f32;
-    // Joint 1 accelerating at `a` from rest, the model's acceleration `model` under `tau`,
-    // read as `read(θ)`; the reference `v_d t` ahead of it.
-    let run = |a: f32, model: f32, tau: f32, v_d: f32, read: &dyn Fn(f32) -> f32| {
-        let mut m = MotionMonitor::new();
-        let (mut theta, mut speed) = (0.0f32, 0.0f32);
-        for k in 0..1000usize {
-            let s = MotionSample {
-                theta: Vector2::new(read(theta), 0.0),
-                theta_d: Vector2::new(theta + v_d * k as f32 * t, 0.0),
-                speed: Vector2::new(speed + a * t, 0.0),
-                tau: Vector2::new(tau, 0.0),
-                accel: Vector2::new(model, 0.0),
-            };
-            let v = m.check(&l, &s);
-            if v != Verdict::Clear {
-                return (v, k, theta);
-            }
-            speed += a * t;
-            theta += speed * t;
-        }
-        (Verdict::Clear, 1000, theta)
-    };
-    let count = std::f32::consts::TAU / 16384.0;
-    let quantized = |x: f32| (x / count).round() * count;
-    let (v, _, theta) = run(2.0, 2.0, 2.0, 0.0, &quantized);
-    assert_eq!(v, Verdict::Clear);
-    assert!(theta > 0.99, "{theta}");
-    let (v, k, theta) = run(2.0, 2.0, 2.0, 0.0, &|_| 0.0);
-    println!("frozen reading: tripped after {k} periods, the joint {theta:.4} rad on");
-    assert_eq!(v, Verdict::Trip(Fault::FrozenEncoder));
-    assert!(theta < 5e-3, "{k} {theta}");
-    // (Unquantized: a reading on one count is named by its standing still.)
-    let (v, k, theta) = run(2.0, 2.0, 2.0, 0.0, &|x| -x);
-    println!("reversed reading: tripped after {k} periods, the joint {theta:.4} rad on");
-    assert_eq!(v, Verdict::Trip(Fault::EncoderMismatch));
-    assert!(theta < 5e-3, "{k} {theta}");
-    let (v, _, _) = run(0.0, 0.13, 0.1, 0.0, &|_| 0.0);
-    assert_eq!(v, Verdict::Clear, "a joint stuck by its friction");
-    let (v, k, _) = run(0.0, 0.13, 0.1, 0.01, &|_| 0.0);
-    let at = (l.frozen_reference.x / 0.01 / t) as usize;
-    println!("a still reading, the reference at 0.01 rad/s: tripped after {k} periods");
-    assert_eq!(v, Verdict::Trip(Fault::FrozenEncoder));
-    assert!(k.abs_diff(at) <= 2, "{k} {at}");
 }
 
 /// When two category-0 checks trip in one period the more direct diagnosis names the fault,
 /// whichever joint it is on: joint 2 runs away, and joint 1, held by its reaction, reads still
-/// under its torque (joint 1 is checked first). At 100 Hz.
+/// under its torque (joint 1 is checked first).
 #[test]
 fn a_runaway_is_named_before_the_frozen_reading_it_causes() {
     use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
-    let l = MotionLimits::<f32>::default_for(100, &paper());
-    // Joint 1's reading stands still under 4 N·m (the model accelerates it at 20 rad/s²) while
-    // joint 2 speeds up against −2 N·m, 0.03 rad off.
+    let l = MotionLimits::<f32>::default_for(100);
+    let mut m = MotionMonitor::new();
     let sample = |k: f32| MotionSample {
         theta: Vector2::new(0.5, 0.03),
-        theta_d: Vector2::new(0.5, 0.0),
-        // 0, 0.1, 0.3, 0.6 rad/s: joint 2 counts from the third sample.
-        speed: Vector2::new(0.2 * k, 0.05 * k * (k - 1.0)),
+        theta_d: Vector2::new(0.5 + 0.002 * k, 0.0),
+        // 0, 0.1, 0.3, 0.6 rad/s: joint 2 counts from the third sample, joint 1 from the second.
+        speed: Vector2::new(0.0, 0.05 * k * (k - 1.0)),
         tau: Vector2::new(4.0, -2.0),
-        accel: Vector2::new(20.0, 0.0),
     };
-    let mut m = MotionMonitor::new();
-    let alone = (1..4).find_map(|k| match m.check(&l, &sample(k as f32)) {
-        Verdict::Clear => None,
-        v => Some(v),
-    });
-    assert_eq!(alone, Some(Verdict::Trip(Fault::FrozenEncoder)));
-    let mut m = MotionMonitor::new();
     for k in 1..4 {
-        m.check(&l, &sample(k as f32));
+        assert_eq!(m.check(&l, &sample(k as f32)), Verdict::Clear);
     }
     assert_eq!(m.check(&l, &sample(4.0)), Verdict::Trip(Fault::Runaway));
-    assert_eq!(m.streaks(), [0, 2]);
+    assert_eq!(m.streaks(), ([0, 2], [3, 0]));
 }
 
 mod nominal {
@@ -540,46 +469,5 @@ mod nominal {
                 prop_assert_eq!(b.rig.drive.mode(&b.rig.control.ctrl), Mode::Armed);
             }
         }
-    }
-}
-
-/// The paper's arm's model.
-fn paper<T: flexarm_core::Real>() -> flexarm_core::model::Model<T> {
-    flexarm_core::model::Model::new(flexarm_core::ArmParams::default())
-}
-
-/// The QEMU board's two encoder injection builds (`cargo fw-qemu`, firmware/src/verdict.rs)
-/// predicted on the host: its configuration (100 Hz motor loop) on its simulated arm, the boot
-/// move (0, 0) → (π/2, π/2) in 2 s from the first period. Joint 1 reversed from boot ends in
-/// `EncoderMismatch` (measured: 30 ms, 1.2 mrad), joint 2 frozen at 1 s (at 1.05 rad/s) in
-/// `FrozenEncoder` (measured: the next period, 0.032 rad): each within 0.1 s, before its joint
-/// travels 0.05 rad.
-#[test]
-fn the_qemu_boards_encoder_injections_end_in_their_faults() {
-    for (injection, onset, want) in [
-        (Injection::Reversed, 0.0, Fault::EncoderMismatch),
-        (Injection::FrozenFrom(1.0), 1.0, Fault::FrozenEncoder),
-    ] {
-        let mut rig = test_rig(firmware(Board::Qemu), [0.0, 0.0], injection);
-        rig.arm().unwrap();
-        let half_pi = std::f32::consts::FRAC_PI_2;
-        rig.start(&trapezoid([half_pi, half_pi], 2.0, 0.5)).unwrap();
-        let mut from = rig.board.sim.arm.x.q.xy();
-        let mut found = None;
-        for k in 0..300 {
-            let t = k as f32 * 0.01;
-            if t < onset {
-                from = rig.board.sim.arm.x.q.xy();
-            }
-            rig.period();
-            if let Some(f) = rig.control.ctrl.fault() {
-                found = Some((f, t, (rig.board.sim.arm.x.q.xy() - from).abs().max()));
-                break;
-            }
-        }
-        println!("QEMU board, {injection:?}: {found:?} (fault, time [s], travel [rad])");
-        let (fault, t, travel) = found.unwrap();
-        assert_eq!(fault, want);
-        assert!(t - onset < 0.1 && travel < 0.05, "{t} {travel}");
     }
 }

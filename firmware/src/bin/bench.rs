@@ -577,7 +577,7 @@ fn main() -> ! {
         });
         ok &= report(set, "piezo_step", &piezo, gated(BUDGET_PIEZO_STEP_MEAN));
         // The motion checks, in steady state (a previous sample, counters running).
-        let limits = MotionLimits::default_for(1000, &model);
+        let limits = MotionLimits::default_for(1000);
         let mut monitor = MotionMonitor::new();
         let motion = measure(states, overhead, |s| {
             let sample = MotionSample {
@@ -585,7 +585,6 @@ fn main() -> ! {
                 theta_d: s.target.q,
                 speed: Vector2::new(s.qd.x, s.qd.y),
                 tau: Vector2::new(s.qd.x, -s.qd.y),
-                accel: s.target.qdd,
             };
             call_motion(black_box(&mut monitor), black_box(&limits), &sample)
         });
