@@ -511,7 +511,7 @@ pub fn act(c: &mut Client, view: &mut View, a: KeyAction) -> Result<bool, Consol
         }
         KeyAction::Estop => {
             view.message = match c.ask(Command::Estop)? {
-                Reply::Done => "EMERGENCY STOP: safe state (clear, then arm)".into(),
+                Reply::Done => "EMERGENCY STOP: safe state, disarmed (arm to hold again)".into(),
                 r => format!("estop: unexpected answer {r:?}"),
             };
             Ok(false)

@@ -289,7 +289,12 @@ fn the_keys_send_their_commands_and_quit_stops_a_move_first() {
     assert!(!live::act(&mut c, &mut view, KeyAction::Stop).unwrap());
     assert!(view.message.starts_with("stop: sent"));
     assert!(!live::act(&mut c, &mut view, KeyAction::Estop).unwrap());
-    assert!(view.message.starts_with("EMERGENCY STOP"));
+    // An emergency stop disarms (no fault is latched, so `clear` would be refused): the hint
+    // says to arm (issue 36: it said "clear, then arm").
+    assert_eq!(
+        view.message,
+        "EMERGENCY STOP: safe state, disarmed (arm to hold again)"
+    );
     assert_eq!(
         std::mem::take(&mut *log.lock().unwrap()),
         [Command::Stop, Command::Estop]
