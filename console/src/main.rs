@@ -903,6 +903,13 @@ fn faults(c: &mut Client, out: &std::path::Path, force: bool) -> Result<(), Cons
             Reply::Faults(p) => p,
             r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
         };
+        // Without a latched fault the ring is still being written: pages read one after the
+        // other would be torn (issue 36 wrote one as "500 motor periods").
+        if page.fault.is_none() {
+            return Err(ConsoleError::Usage(
+                "faults: no fault is latched, so the recorder is still recording (it freezes at a fault); nothing written".into(),
+            ));
+        }
         fault = fault.or(page.fault);
         let done = page.samples.is_empty();
         samples.extend(page.samples.iter().copied());

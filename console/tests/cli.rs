@@ -862,3 +862,28 @@ fn config_dump_diff_and_restore() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `faults` with no fault latched refuses, writing nothing: the recorder is still recording,
+/// and pages read one after the other would be torn.
+#[test]
+fn faults_without_a_fault_refuses() {
+    fn recording(c: &Command) -> Option<Reply> {
+        match c {
+            Command::Faults { from } => Some(Reply::Faults(flexarm_link::msg::FaultPage {
+                fault: None,
+                total: 500,
+                from: *from,
+                samples: heapless::Vec::new(),
+            })),
+            _ => ours(c),
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("flexarm-faults-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let at = format!("127.0.0.1:{}", firmware(recording));
+    fails_with(
+        &["--tcp", &at, "faults", dir.to_str().unwrap()],
+        "no fault is latched",
+    );
+    assert!(!dir.exists(), "nothing written");
+}
