@@ -33,7 +33,7 @@ use flexarm_core::plant::State;
 use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::JointTrajectory;
 use flexarm_link::Command;
-use flexarm_link::msg::{Channels, Move, Telemetry};
+use flexarm_link::msg::{Channels, Mode, Move, Telemetry};
 use flexarm_sim::outdir::OutDir;
 use flexarm_sim::sim::{Sample, SimConfig, Summary, simulate_segments, summarize};
 use flexarm_sim::study::{Case, Outcome};
@@ -260,6 +260,14 @@ pub fn record(
     frames.extend(c.take_telemetry());
     frames.retain(|f| f.tick <= end_tick);
     bar.finish_and_clear();
+    // A move that outlasts the recording is not left running unwatched: stopped (the drive's
+    // controlled stop), and said so.
+    if mv.is_some() && matches!(c.status()?.mode, Mode::Moving | Mode::Stopping) {
+        interrupt::stop_arm(c)?;
+        eprintln!(
+            "flexarm: record: the move outlasted the {seconds} s recording: stopped short of its end (record longer than the move to keep it whole)"
+        );
+    }
     let lost: u64 = frames
         .windows(2)
         .map(|w| u64::from(w[1].seq.wrapping_sub(w[0].seq).saturating_sub(1)))
