@@ -86,6 +86,22 @@ fn ours(c: &Command) -> Option<Reply> {
     })
 }
 
+/// A status in `mode`, no fault, with `link_stops` watchdog stops and every other counter 0.
+fn status_in(mode: Mode, link_stops: u32) -> Status {
+    Status {
+        mode,
+        fault: None,
+        ticks: 1,
+        loads: [Load::default(); 2],
+        telemetry_dropped: 0,
+        link_stops,
+        rx_bytes: 0,
+        rx_lost: 0,
+        rx_malformed: 0,
+        stack_used: 0,
+    }
+}
+
 fn flexarm(args: &[&str]) -> Output {
     Process::new(env!("CARGO_BIN_EXE_flexarm"))
         .args(args)
@@ -476,18 +492,7 @@ fn a_waypoint_file_is_uploaded_in_chunks_and_run() {
                     Reply::Refused(Refusal::Waypoints)
                 })
             }
-            Command::Status => Some(Reply::Status(Status {
-                mode: Mode::Armed,
-                fault: None,
-                ticks: 1,
-                loads: [Load::default(); 2],
-                telemetry_dropped: 0,
-                link_stops: 0,
-                rx_bytes: 0,
-                rx_lost: 0,
-                rx_malformed: 0,
-                stack_used: 0,
-            })),
+            Command::Status => Some(Reply::Status(status_in(Mode::Armed, 0))),
             other => ours(other),
         }
     }
@@ -586,18 +591,7 @@ fn a_terminate_signal_stops_the_move_before_the_tool_exits() {
                     true => Mode::Moving,
                     false => Mode::Armed,
                 };
-                return Some(Reply::Status(Status {
-                    mode,
-                    fault: None,
-                    ticks: 0,
-                    loads: [Load::default(); 2],
-                    telemetry_dropped: 0,
-                    link_stops: 0,
-                    rx_bytes: 0,
-                    rx_lost: 0,
-                    rx_malformed: 0,
-                    stack_used: 0,
-                }));
+                return Some(Reply::Status(status_in(mode, 0)));
             }
             _ => return ours(c),
         }
@@ -680,22 +674,14 @@ fn a_move_the_watchdog_stopped_is_not_reported_as_ended() {
             _ => return ours(c),
         };
         // Moving for two polls, then holding with one watchdog stop counted.
-        Some(Reply::Status(Status {
-            mode: if moving == Some(true) {
+        Some(Reply::Status(status_in(
+            if moving == Some(true) {
                 Mode::Moving
             } else {
                 Mode::Armed
             },
-            fault: None,
-            ticks: 0,
-            loads: [Load::default(); 2],
-            telemetry_dropped: 0,
-            link_stops: u32::from(moving == Some(false)),
-            rx_bytes: 0,
-            rx_lost: 0,
-            rx_malformed: 0,
-            stack_used: 0,
-        }))
+            u32::from(moving == Some(false)),
+        )))
     }
     let at = format!("127.0.0.1:{}", firmware(cut_short));
     let o = flexarm(&[
