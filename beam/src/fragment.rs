@@ -26,7 +26,7 @@
 
 use crate::config::ConfigError;
 use crate::design::{DesignModel, PatchModes, reference_volts_per_gain};
-use crate::optimize::Optimum;
+use crate::point::Optimum;
 use crate::toml_at::{array, de_error, number, option_array};
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::PiezoPatch;
@@ -407,7 +407,7 @@ pub fn read_piezo(text: &str, a2: f64) -> Result<PiezoChoice, ConfigError> {
 mod tests {
     use super::*;
     use crate::design::Weights;
-    use crate::optimize::evaluate;
+    use crate::point::evaluate;
 
     #[test]
     fn fragment_is_valid_toml_with_the_design_values() {

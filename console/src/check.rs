@@ -137,7 +137,7 @@ pub fn movement(m: &Move) -> Result<(), ConsoleError> {
 /// Returns the first waypoint (0-based) at fault and why.
 pub fn path(points: &[Waypoint]) -> Result<(), (usize, String)> {
     let l = MoveLimits::<f32>::default();
-    let shortest = 1.0 / flexarm_sim::sim::Rates::default().motor_hz as f32;
+    let shortest = 1.0 / flexarm_host::sim::Rates::default().motor_hz as f32;
     for (i, w) in points.iter().enumerate() {
         if let Some((j, lo, hi)) = outside(w.theta) {
             return Err((
@@ -207,7 +207,7 @@ pub fn set_value(name: &str, p: Param, value: f32) -> Result<(), ConsoleError> {
     let Home::Tuning(tunable) = session::home(p) else {
         return Ok(());
     };
-    let rates = flexarm_sim::sim::Rates::default();
+    let rates = flexarm_host::sim::Rates::default();
     let (piezo, motor) = (1.0 / rates.piezo_hz as f32, 1.0 / rates.motor_hz as f32);
     let mut ctrl = Controller::<f32>::paper(
         MotorLaw::Tracking,

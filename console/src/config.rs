@@ -32,10 +32,10 @@ pub struct Dump {
 /// board (`firmware/piezo.toml`), or `model`'s text, when it gives the handshake's hash.
 pub fn build_config(hello: &Hello, model: Option<&str>) -> Option<BoardConfig> {
     let config = match model {
-        Some(text) => flexarm_sim::firmware_params::design(text)
+        Some(text) => flexarm_host::firmware_params::design(text)
             .ok()?
             .board(hello.board),
-        None => flexarm_sim::firmware_params::paper_board(hello.board).ok()?,
+        None => flexarm_host::firmware_params::paper_board(hello.board).ok()?,
     };
     (config.hash() == hello.params_hash).then_some(config)
 }

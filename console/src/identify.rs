@@ -1,5 +1,5 @@
 //! `identify friction`, `modes`, `decay` and `inertia`: the simulator's experiments
-//! (`flexarm_sim::identify`, docs/identification.md) run on the arm over the link, with the
+//! (`flexarm_host::identify`, docs/identification.md) run on the arm over the link, with the
 //! same fits and files. Friction: the same constant-speed trapezoids, out and back for each
 //! joint from where the arm holds, the same cruise averages (the firmware's torque commands and
 //! its estimated angles). Modes: the same blocks of bias steps and moves at the same pose.
@@ -10,13 +10,13 @@ use std::time::Duration;
 
 use flexarm_core::Vector2;
 use flexarm_core::trajectory::JointTrajectory;
+use flexarm_host::identify::decay::DecayPlan;
+use flexarm_host::identify::inertia::{self, InertiaPlan};
+use flexarm_host::identify::modes::{Excitation, ModesPlan, excitation};
+use flexarm_host::identify::{self, Cruise, Friction};
+use flexarm_host::sim::Sample;
 use flexarm_link::Command;
 use flexarm_link::msg::{Mode, Move, Param, Telemetry};
-use flexarm_sim::identify::decay::DecayPlan;
-use flexarm_sim::identify::inertia::{self, InertiaPlan};
-use flexarm_sim::identify::modes::{Excitation, ModesPlan, excitation};
-use flexarm_sim::identify::{self, Cruise, Friction};
-use flexarm_sim::sim::Sample;
 
 use crate::client::{Client, ConsoleError};
 use crate::{fault_name, interrupt, record};
@@ -141,7 +141,7 @@ pub fn friction(
     Ok((cruises, fits))
 }
 
-/// The modes experiment (`flexarm_sim::identify::modes`) on the holding arm: a move to the
+/// The modes experiment (`flexarm_host::identify::modes`) on the holding arm: a move to the
 /// plan's pose, then its blocks (the patch's bias steps while holding, each one parameter
 /// write; joint 2's moves, each one `move trapezoid`), the piezo loop off throughout (`k_c`
 /// written back at the end, and the bias back to 0 on every path). Returns the record, one
@@ -152,7 +152,7 @@ pub fn modes(c: &mut Client, plan: &ModesPlan) -> Result<(Vec<Sample>, (f64, f64
     excite(c, plan.pose, &ex, plan.seconds, plan.piezo_volts)
 }
 
-/// The free decay (`flexarm_sim::identify::decay`) on the holding arm: a move to the plan's
+/// The free decay (`flexarm_host::identify::decay`) on the holding arm: a move to the plan's
 /// pose, then its taps (two parameter writes each: the bias on, then off), the piezo loop off
 /// throughout, as [`modes`]. Returns the record and the amplifier's window [V].
 pub fn decay(c: &mut Client, plan: &DecayPlan) -> Result<(Vec<Sample>, (f64, f64)), ConsoleError> {
@@ -238,7 +238,7 @@ fn timeline(
     Ok(samples(c, &frames, from))
 }
 
-/// The inertia experiment (`flexarm_sim::identify::inertia`) on the holding arm: a move to the
+/// The inertia experiment (`flexarm_host::identify::inertia`) on the holding arm: a move to the
 /// plan's pose, then its moves one after another, each a `move trapezoid` the drive validates.
 /// Returns the record, one sample per telemetry frame; lost frames are refused by the fit.
 pub fn inertia(c: &mut Client, plan: &InertiaPlan) -> Result<Vec<Sample>, ConsoleError> {

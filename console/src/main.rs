@@ -216,10 +216,10 @@ enum Action {
         /// The output folder.
         out: PathBuf,
         /// Cruise speeds [rad/s], both directions each.
-        #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::identify::SPEEDS)]
+        #[arg(long, value_delimiter = ',', default_values_t = flexarm_host::identify::SPEEDS)]
         speeds: Vec<f64>,
         /// Seconds of each cruise averaged.
-        #[arg(long, default_value_t = flexarm_sim::identify::CRUISE)]
+        #[arg(long, default_value_t = flexarm_host::identify::CRUISE)]
         cruise: f64,
         /// Replace files of the same name that no flexarm command wrote.
         #[arg(long)]
@@ -283,7 +283,7 @@ enum MoveKind {
 }
 
 fn main() -> ExitCode {
-    flexarm_sim::cli::one_line_panics("flexarm");
+    flexarm_host::cli::one_line_panics("flexarm");
     // A usage mistake is one line too, and exit status 1 (help and version print as usual).
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -518,9 +518,9 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             force,
         } => {
             // The folder first: a folder the tool may not write is named before the arm moves.
-            let dir = flexarm_sim::outdir::OutDir::open(&out, "identify", force)
+            let dir = flexarm_host::outdir::OutDir::open(&out, "identify", force)
                 .map_err(ConsoleError::Io)?;
-            use flexarm_sim::identify::{self, workflow};
+            use flexarm_host::identify::{self, workflow};
             let staging = dir.staging();
             let report = match experiment.as_str() {
                 "inertia" => {
@@ -542,7 +542,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                         staging,
                         ("The modes experiment over the link", &trace),
                         (film_range, window),
-                        &flexarm_sim::identify::modal::FitSettings::default(),
+                        &flexarm_host::identify::modal::FitSettings::default(),
                         None,
                         true,
                     )
@@ -564,8 +564,8 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                         staging,
                         &trace,
                         (film_range, window),
-                        &plan,
-                        &flexarm_sim::sim::SimConfig::board(
+                        (&plan, None),
+                        &flexarm_host::sim::SimConfig::board(
                             f64::from(c.hello.motor_hz),
                             f64::from(c.hello.piezo_hz),
                         ),
@@ -632,7 +632,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
 /// firmware answers. A waypoint file is checked as it is read.
 fn check_arguments(cli: &Cli) -> Result<(), ConsoleError> {
     use flexarm_console::check;
-    use flexarm_sim::identify::{self, inertia, modes};
+    use flexarm_host::identify::{self, inertia, modes};
     check::up_to("--wait", cli.wait, 600.0, "s")?;
     let decimation = |d: u16| match d {
         0 => Err(ConsoleError::Usage(
@@ -710,16 +710,16 @@ fn check_arguments(cli: &Cli) -> Result<(), ConsoleError> {
 }
 
 /// The inertia experiment of `moves` moves.
-fn inertia_plan(moves: usize) -> flexarm_sim::identify::inertia::InertiaPlan {
-    flexarm_sim::identify::inertia::InertiaPlan {
+fn inertia_plan(moves: usize) -> flexarm_host::identify::inertia::InertiaPlan {
+    flexarm_host::identify::inertia::InertiaPlan {
         moves,
         ..Default::default()
     }
 }
 
 /// The modes experiment: `seconds` long, bias steps of `volts`, joint 2's moves of `tap`.
-fn modes_plan(seconds: f64, volts: f64, tap: f64) -> flexarm_sim::identify::modes::ModesPlan {
-    flexarm_sim::identify::modes::ModesPlan {
+fn modes_plan(seconds: f64, volts: f64, tap: f64) -> flexarm_host::identify::modes::ModesPlan {
+    flexarm_host::identify::modes::ModesPlan {
         seconds,
         piezo_volts: volts,
         tap,
@@ -728,8 +728,8 @@ fn modes_plan(seconds: f64, volts: f64, tap: f64) -> flexarm_sim::identify::mode
 }
 
 /// The decay experiment: `taps` taps of `volts`.
-fn decay_plan(taps: usize, volts: f64) -> flexarm_sim::identify::decay::DecayPlan {
-    flexarm_sim::identify::decay::DecayPlan {
+fn decay_plan(taps: usize, volts: f64) -> flexarm_host::identify::decay::DecayPlan {
+    flexarm_host::identify::decay::DecayPlan {
         taps,
         volts,
         ..Default::default()

@@ -1,9 +1,9 @@
 //! `record` and `compare`: telemetry to the simulator's CSV and figure, and a recording against
 //! the simulator's run of the same move.
 //!
-//! A recording is three files in the output folder (written through `flexarm_sim::outdir`:
+//! A recording is three files in the output folder (written through `flexarm_host::outdir`:
 //! staged, then moved into place; a file no flexarm command wrote is never replaced):
-//! - `recording_firmware.csv`: the simulator's trace format (`flexarm_sim::output::write_csv`),
+//! - `recording_firmware.csv`: the simulator's trace format (`flexarm_host::output::write_csv`),
 //!   one row per telemetry frame. The firmware streams its *estimates*: θ̂ and δ̂ in the state
 //!   columns, `θ_d = θ̂ − (θ̂ − θ_d)` from the error channel, the tip deflection computed from
 //!   them with the paper's model; the modal rates, not streamed, are `NaN`.
@@ -16,7 +16,7 @@
 //! `compare` rebuilds the board's configuration from the recorded model (`flexarm_machine::
 //! BoardConfig`, as `cargo sim firmware-params` generates the firmware's), refuses a recording
 //! whose hash it does not reproduce, applies the recorded parameters, plans the recorded move
-//! with the drive, runs it on the host's rig (`flexarm_sim::sim`: the firmware's controller and
+//! with the drive, runs it on the host's rig (`flexarm_host::sim`: the firmware's controller and
 //! drive at its rates, with its sensors; the QEMU board's arm for a QEMU recording, the model
 //! for a board's), aligns the two on the reference θ_d, and prints the Eq. 37/38 indices of
 //! both; `--within F` fails when the recording's tracking indices exceed `F` times the
@@ -32,11 +32,11 @@ use flexarm_core::drive::{MoveRequest, Waypoint};
 use flexarm_core::plant::State;
 use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::JointTrajectory;
+use flexarm_host::outdir::OutDir;
+use flexarm_host::sim::{Sample, SimConfig, Summary, simulate_segments, summarize};
+use flexarm_host::study::{Case, Outcome};
 use flexarm_link::Command;
 use flexarm_link::msg::{Channels, Mode, Move, Telemetry};
-use flexarm_sim::outdir::OutDir;
-use flexarm_sim::sim::{Sample, SimConfig, Summary, simulate_segments, summarize};
-use flexarm_sim::study::{Case, Outcome};
 use serde::{Deserialize, Serialize};
 
 use crate::client::{Client, ConsoleError};
@@ -313,7 +313,7 @@ fn model_of(path: &Path, hello: &flexarm_link::msg::Hello) -> Option<String> {
         Ok(t) => t,
         Err(e) => return warn(e.to_string()),
     };
-    match flexarm_sim::firmware_params::design(&text) {
+    match flexarm_host::firmware_params::design(&text) {
         Ok(p) => {
             let hash = p.board(hello.board).hash();
             if hash == hello.params_hash {
@@ -379,18 +379,18 @@ pub fn save(r: Recording, out: &Path, force: bool) -> Result<Vec<String>, Consol
     let o = outcome(r.trace, "recording");
     let staged = dir.staging();
     std::fs::write(staged.join(format!("{STEM}.toml")), text)
-        .and_then(|()| flexarm_sim::output::write_csv(staged, &o))
+        .and_then(|()| flexarm_host::output::write_csv(staged, &o))
         .map_err(|e| ConsoleError::Io(format!("{}: {e}", out.display())))?;
-    flexarm_sim::output::write_figure(staged, &o)
+    flexarm_host::output::write_figure(staged, &o)
         .map_err(|e| ConsoleError::Io(format!("the figure: {e}")))?;
     dir.commit().map_err(ConsoleError::Io)
 }
 
 /// `flexarm plot`: the figure of a trace file already written (a recording, the fault
-/// recorder's, a simulator's run: `flexarm_sim::output`'s format) as `plot_trace.svg` in `out`,
+/// recorder's, a simulator's run: `flexarm_host::output`'s format) as `plot_trace.svg` in `out`,
 /// the same panels as the recording's; returns the file's name.
 pub fn plot(csv: &Path, out: &Path, force: bool) -> Result<Vec<String>, ConsoleError> {
-    let trace = flexarm_sim::output::read_csv(csv).map_err(ConsoleError::Usage)?;
+    let trace = flexarm_host::output::read_csv(csv).map_err(ConsoleError::Usage)?;
     if trace.len() < 2 {
         return Err(ConsoleError::Usage(format!(
             "{}: {} samples: nothing to plot",
@@ -399,7 +399,7 @@ pub fn plot(csv: &Path, out: &Path, force: bool) -> Result<Vec<String>, ConsoleE
         )));
     }
     let dir = OutDir::open(out, "plot", force).map_err(ConsoleError::Io)?;
-    flexarm_sim::output::write_figure(dir.staging(), &outcome_of(trace, "plot", "trace"))
+    flexarm_host::output::write_figure(dir.staging(), &outcome_of(trace, "plot", "trace"))
         .map_err(|e| ConsoleError::Io(format!("the figure: {e}")))?;
     dir.commit().map_err(ConsoleError::Io)
 }
@@ -443,9 +443,9 @@ pub fn save_faults(
         .collect();
     let dir = OutDir::open(out, "faults", force).map_err(ConsoleError::Io)?;
     let o = outcome(trace, "faults");
-    flexarm_sim::output::write_csv(dir.staging(), &o)
+    flexarm_host::output::write_csv(dir.staging(), &o)
         .map_err(|e| ConsoleError::Io(format!("{}: {e}", out.display())))?;
-    flexarm_sim::output::write_figure(dir.staging(), &o)
+    flexarm_host::output::write_figure(dir.staging(), &o)
         .map_err(|e| ConsoleError::Io(format!("the figure: {e}")))?;
     dir.commit().map_err(ConsoleError::Io)
 }
@@ -470,7 +470,7 @@ pub struct Comparison {
 
 /// Reads `csv` and its `.toml`, simulates the same move and aligns the two.
 pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
-    let trace = flexarm_sim::output::read_csv(csv).map_err(ConsoleError::Usage)?;
+    let trace = flexarm_host::output::read_csv(csv).map_err(ConsoleError::Usage)?;
     let toml_path = csv.with_extension("toml");
     let shown = toml_path.display();
     let text = std::fs::read_to_string(&toml_path).map_err(|e| {
@@ -638,7 +638,7 @@ fn firmware_of(
             line("params_hash")
         )));
     };
-    let p = flexarm_sim::firmware_params::design(model)
+    let p = flexarm_host::firmware_params::design(model)
         .map_err(|e| ConsoleError::Usage(format!("{shown}:{}: model: {e}", line("model"))))?;
     let mut config = p.board(board);
     if config.hash() != hash {
@@ -711,7 +711,7 @@ pub fn table(c: &Comparison) -> String {
 /// Writes `compare.svg` (the two traces on the same axes) into `out`.
 pub fn save_comparison(c: &Comparison, out: &Path, force: bool) -> Result<PathBuf, ConsoleError> {
     let dir = OutDir::open(out, "compare", force).map_err(ConsoleError::Io)?;
-    flexarm_sim::output::write_comparison(
+    flexarm_host::output::write_comparison(
         &dir.staging().join("compare.svg"),
         "The firmware's recording against the simulator's run of the same move",
         ("recording", &c.traces.0),

@@ -717,14 +717,14 @@ fn plot_and_completions_need_no_board() {
     let traj = flexarm_core::trajectory::JointTrajectory::Trapezoid(
         flexarm_core::trajectory::Trapezoid::paper(),
     );
-    let cfg = flexarm_sim::sim::SimConfig {
+    let cfg = flexarm_host::sim::SimConfig {
         duration: 0.5,
         tail_window: 0.25,
-        ..flexarm_sim::sim::SimConfig::default()
+        ..flexarm_host::sim::SimConfig::default()
     };
-    let (summary, trace) = flexarm_sim::sim::simulate(&cfg, &traj, true).unwrap();
-    let o = flexarm_sim::study::Outcome {
-        case: flexarm_sim::study::Case {
+    let (summary, trace) = flexarm_host::sim::simulate(&cfg, &traj, true).unwrap();
+    let o = flexarm_host::study::Outcome {
+        case: flexarm_host::study::Case {
             scenario: "short",
             controller: "paper",
             config: cfg,
@@ -733,7 +733,7 @@ fn plot_and_completions_need_no_board() {
         summary,
         trace,
     };
-    flexarm_sim::output::write_csv(&dir, &o).unwrap();
+    flexarm_host::output::write_csv(&dir, &o).unwrap();
     let csv = dir.join("short_paper.csv");
     let out = dir.join("figures");
     let o = flexarm(&["plot", csv.to_str().unwrap(), out.to_str().unwrap()]);

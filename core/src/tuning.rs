@@ -1,7 +1,7 @@
 //! The parameters a host may read and change on a running controller (the link's `get`/`set`):
 //! the motor gains `K_p`, `Λ`, `D_Δ`, the piezo gain `k_c` and its filter corner, the torque and
 //! voltage limits. A change is validated with the rules of [`Controller::new`], against the
-//! board's ceilings, with the filter corner below the piezo loop's Nyquist rate and the motor
+//! board's ceilings (and the torque limits against a floor, [`TAU_FLOOR_SHARE`]), with the filter corner below the piezo loop's Nyquist rate and the motor
 //! gains inside the sampled loop's stable region at the motor period, before
 //! anything is written, refused while a move runs, and written whole
 //! between two control steps (the caller holds the controller, so neither loop sees half of it).
@@ -45,6 +45,13 @@ pub enum TuneError {
     /// Not while a move or a stop runs.
     Moving,
 }
+
+/// The smallest torque limit [`Tuning::set`] accepts, as a share of the board's ceiling: 1 %
+/// (0.1 N·m on the boards' 10 N·m drives). A limit under it leaves a joint unable to follow any
+/// move against its own drive's friction (the truth plant's drives carry 0.05 N·m of Coulomb
+/// friction), so the following-error check would stop every move; and `1e-30` is a typo, not a
+/// setting (issue 36).
+pub const TAU_FLOOR_SHARE: f64 = 0.01;
 
 /// The entry an index names, or [`TuneError::Unknown`].
 fn slot<X>(v: Option<&mut X>) -> Result<&mut X, TuneError> {
@@ -135,9 +142,20 @@ impl<T: Real> Tuning<T> {
             Tunable::VaMin => limits.v_a_min = value,
         }
         let law = PiezoLaw::with_window(&piezo, self.piezo_period, limits.v_a_min, limits.v_a_max);
-        // The board's ceilings, and a filter corner below the piezo loop's Nyquist rate.
+        // The board's ceilings and the torque limits' floor, and a filter corner below the
+        // piezo loop's Nyquist rate.
+        // (An infinite ceiling, a host's check before it knows the board, sets no floor.)
+        let floor = self.tau_ceiling.map(|c| {
+            if c.finite() {
+                c * T::c(TAU_FLOOR_SHARE)
+            } else {
+                T::zero()
+            }
+        });
         let within = limits.tau_max.x <= self.tau_ceiling.x
             && limits.tau_max.y <= self.tau_ceiling.y
+            && limits.tau_max.x >= floor.x
+            && limits.tau_max.y >= floor.y
             && limits.v_a_max <= self.v_a_ceiling
             && -limits.v_a_min <= self.v_a_ceiling
             && piezo.cutoff_hz * self.piezo_period < T::c(0.5);

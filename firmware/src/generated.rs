@@ -2,7 +2,7 @@
 //!
 //! Generated: do not edit. Source: `firmware/piezo.toml`. Regenerate with
 //! `cargo sim firmware-params firmware/piezo.toml --out firmware/src/generated.rs`
-//! (host-sim/src/firmware_params.rs). `cargo test -p flexarm-sim --test firmware_params`
+//! (host/src/firmware_params.rs). `cargo test -p flexarm-host --test firmware_params`
 //! checks that `firmware/src/generated.rs` is what `firmware/piezo.toml` gives.
 //!
 //! Observer gains: steady-state Kalman gains (`flexarm_core::observer::design`,

@@ -3,7 +3,7 @@
 //! whose work and memory are within the stated bounds. `cargo fuzz run -s none overrides`.
 #![no_main]
 
-use flexarm_sim::sim::{MAX_PLANT_STEPS, MAX_RECORDED_SAMPLES};
+use flexarm_host::sim::{MAX_PLANT_STEPS, MAX_RECORDED_SAMPLES};
 use libfuzzer_sys::fuzz_target;
 
 const SCENARIO: &str = include_str!("../../host-sim/scenarios/trapezoid_observer.toml");
@@ -14,7 +14,7 @@ fuzz_target!(|data: &[u8]| {
         b.copy_from_slice(c);
         f64::from_le_bytes(b)
     });
-    let Ok(mut sc) = flexarm_sim::scenario::parse(SCENARIO) else {
+    let Ok(mut sc) = flexarm_host::scenario::parse(SCENARIO) else {
         panic!("the shipped scenario must parse");
     };
     let c = &mut sc.config;

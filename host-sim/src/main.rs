@@ -5,11 +5,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
-use flexarm_sim::outdir::{OutDir, write_atomic};
-use flexarm_sim::sim::{Rates, Sensors, SimConfig, StateSource};
-use flexarm_sim::study::{self, Case, Options, Outcome};
-use flexarm_sim::truth_plant::TruthSpec;
-use flexarm_sim::{firmware_params, montecarlo, output, plant, scenario, spillover_study};
+use flexarm_host::outdir::{OutDir, write_atomic};
+use flexarm_host::sim::{Rates, Sensors, SimConfig, StateSource};
+use flexarm_host::study::{self, Case, Options, Outcome};
+use flexarm_host::truth_plant::TruthSpec;
+use flexarm_host::{firmware_params, montecarlo, output, plant, scenario, spillover_study};
 
 #[derive(Parser)]
 #[command(
@@ -71,7 +71,7 @@ enum Command {
         #[arg(long, default_value_t = 5.0)]
         duration: f64,
         /// Bond factors of the film's feedthrough the laws are compared at, 0 to 1.
-        #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::spillover_study::BONDS)]
+        #[arg(long, value_delimiter = ',', default_values_t = flexarm_host::spillover_study::BONDS)]
         bond: Vec<f64>,
         /// Output folder.
         #[arg(long, default_value = "out/spillover")]
@@ -114,7 +114,8 @@ enum Command {
         /// Length of the modes experiment's record [s].
         #[arg(long, default_value_t = 60.0)]
         seconds: f64,
-        /// `modes`, `model`: the band fitted, `LOW,HIGH` [Hz] (default: what the record's inputs cover).
+        /// `modes`, `model`: the band fitted, `LOW,HIGH` [Hz] (default: what the record's inputs
+        /// cover); `decay`: the band the decay's modes are read in (default 1.5,40).
         #[arg(long, value_delimiter = ',', num_args = 2)]
         band: Option<Vec<f64>>,
         /// `modes`, `model`: the controller's modes, numbered from 1 upwards among those found (default 1,2).
@@ -127,10 +128,10 @@ enum Command {
         #[arg(long)]
         segment: Option<f64>,
         /// Cruise speeds [rad/s], both directions each.
-        #[arg(long, value_delimiter = ',', default_values_t = flexarm_sim::identify::SPEEDS)]
+        #[arg(long, value_delimiter = ',', default_values_t = flexarm_host::identify::SPEEDS)]
         speeds: Vec<f64>,
         /// Seconds of each cruise averaged.
-        #[arg(long, default_value_t = flexarm_sim::identify::CRUISE)]
+        #[arg(long, default_value_t = flexarm_host::identify::CRUISE)]
         cruise: f64,
         /// Output folder.
         #[arg(long, default_value = "out/identify")]
@@ -381,7 +382,7 @@ fn main_result(cli: Cli) -> Result<()> {
         } => {
             let dir = OutDir::open(&out, "optimize", force)?;
             let summary =
-                flexarm_beam::cli::run_optimize(config.as_deref(), dir.staging(), !no_plots)
+                flexarm_placement::cli::run_optimize(config.as_deref(), dir.staging(), !no_plots)
                     .map_err(|e| e.to_string())?;
             let files = dir.commit()?;
             println!("{summary}\nWrote {}: {}.", out.display(), files.join(", "));
@@ -519,7 +520,7 @@ fn main_result(cli: Cli) -> Result<()> {
                 Some(p) => {
                     let text = std::fs::read_to_string(p)
                         .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
-                    let (arm, choice) = flexarm_sim::scenario::read_model(&text)
+                    let (arm, choice) = flexarm_host::scenario::read_model(&text)
                         .map_err(|e| flexarm_beam::toml_at::at_line(p, &text, &e.0))?;
                     Some((arm, choice.patch))
                 }
@@ -529,12 +530,12 @@ fn main_result(cli: Cli) -> Result<()> {
                 Some(p) => {
                     let text = std::fs::read_to_string(p)
                         .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
-                    flexarm_sim::identify::geometry::Geometry::parse(&text)
+                    flexarm_host::identify::geometry::Geometry::parse(&text)
                         .map_err(|e| flexarm_beam::toml_at::at_line(p, &text, &e))?
                 }
-                None => flexarm_sim::identify::geometry::Geometry::default(),
+                None => flexarm_host::identify::geometry::Geometry::default(),
             };
-            use flexarm_sim::identify::workflow;
+            use flexarm_host::identify::workflow;
             let dir = OutDir::open(&out, "identify", force)?;
             let b = workflow::Bench {
                 cfg: &cfg,
@@ -555,15 +556,16 @@ fn main_result(cli: Cli) -> Result<()> {
             {
                 return Err(format!("--segment {s}: give a length in seconds > 0"));
             }
-            let fit_set = flexarm_sim::identify::modal::FitSettings {
-                band: band.map(|b| (b[0], b[1])),
+            let band = band.map(|b| (b[0], b[1]));
+            let fit_set = flexarm_host::identify::modal::FitSettings {
+                band,
                 keep: keep.unwrap_or_else(|| vec![1, 2]),
                 max_modes,
                 segment,
             };
             let report = match (experiment.as_str(), &record) {
                 ("family", None) => {
-                    use flexarm_sim::identify::family::{self, Kind};
+                    use flexarm_host::identify::family::{self, Kind};
                     use rayon::prelude::*;
                     let kinds = Kind::ALL;
                     let results: Vec<_> = family::family()
@@ -571,7 +573,7 @@ fn main_result(cli: Cli) -> Result<()> {
                         .map(|arm| family::identify_arm(arm, &kinds, dir.staging(), false))
                         .collect::<Result<_>>()?;
                     let text = format!(
-                        "# The family\n\nEach arm of `flexarm_sim::identify::family` recorded by `flexarm_sim::lab` (a PD hold, the kinds below, sized to {} of the film's range), written and read back as a trace, fitted by `cargo sim identify`'s code (`cargo sim identify family`).\n\n## Per kind of record\n\n{}\n## Per arm\n\n{}",
+                        "# The family\n\nEach arm of `flexarm_host::identify::family` recorded by `flexarm_host::lab` (a PD hold, the kinds below, sized to {} of the film's range), written and read back as a trace, fitted by `cargo sim identify`'s code (`cargo sim identify family`).\n\n## Per kind of record\n\n{}\n## Per arm\n\n{}",
                         family::FILM_SHARE,
                         family::summary(&results),
                         family::report(&results)
@@ -597,7 +599,7 @@ fn main_result(cli: Cli) -> Result<()> {
                         .into_iter()
                         .chain([("nominal model", *nominal.0, *nominal.1)])
                         .collect();
-                    workflow::decay_step(&b, r.as_deref(), &models)?.1
+                    workflow::decay_step(&b, r.as_deref(), &models, band)?.1
                 }
                 ("friction", r) => workflow::friction_step(&b, r.as_deref(), &speeds, cruise)?,
                 (_, Some(_)) => {
@@ -680,7 +682,7 @@ fn refuse_foreign(path: &Path, force: bool, ours: fn(&str) -> bool) -> Result<()
 }
 
 fn main() -> ExitCode {
-    flexarm_sim::cli::one_line_panics("flexarm-sim");
+    flexarm_host::cli::one_line_panics("flexarm-sim");
     // Help and version print as usual; a command-line error is one line and exit status 1,
     // like every other bad input.
     let cli = match Cli::try_parse() {

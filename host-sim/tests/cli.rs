@@ -140,7 +140,7 @@ fn optimized_patch_flows_into_a_scenario() {
         "name = \"optimized\"\nduration = 1.0\ntail_window = 0.5\n[trajectory]\nkind = \"trapezoid\"\n[controller]\npiezo = true\n\n{fragment}"
     );
     let scenario = scratch("optimized.toml", &text);
-    let sc = flexarm_sim::scenario::load(&scenario).unwrap();
+    let sc = flexarm_host::scenario::load(&scenario).unwrap();
     let x_a: f64 = fragment
         .lines()
         .find_map(|l| l.strip_prefix("x_a = "))
@@ -164,7 +164,7 @@ fn optimized_patch_flows_into_a_scenario() {
 
 #[test]
 fn firmware_params_writes_the_generated_file() {
-    use flexarm_sim::firmware_params::{Names, paper_fragment, render};
+    use flexarm_host::firmware_params::{Names, paper_fragment, render};
     let dir = std::env::temp_dir().join(format!("flexarm-cli-fw-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let root = format!("{}/..", env!("CARGO_MANIFEST_DIR"));
@@ -213,7 +213,7 @@ fn firmware_params_writes_the_generated_file() {
 
 #[test]
 fn firmware_params_refuses_with_one_error_line() {
-    let good = flexarm_sim::firmware_params::paper_fragment().unwrap();
+    let good = flexarm_host::firmware_params::paper_fragment().unwrap();
     let cases = [
         (
             "neg_kc.toml",
@@ -370,7 +370,7 @@ fn firmware_params_never_overwrites_its_input_or_a_foreign_file() {
     let fragment = dir.join("piezo.toml");
     std::fs::write(
         &fragment,
-        flexarm_sim::firmware_params::paper_fragment().unwrap(),
+        flexarm_host::firmware_params::paper_fragment().unwrap(),
     )
     .unwrap();
     let frag = fragment.to_str().unwrap();
@@ -821,7 +821,7 @@ fn identify_decay_checks_a_model_file() {
     let out = fresh_dir("identify-decay");
     let model = scratch(
         "decay_model.toml",
-        &flexarm_sim::identify::model::model_fragment(
+        &flexarm_host::identify::model::model_fragment(
             &flexarm_core::params::ArmParams::default(),
             &flexarm_core::control::piezo::PiezoPatch::paper(),
             3.162,
@@ -898,18 +898,18 @@ fn identify_decay_checks_a_model_file() {
 }
 
 /// `identify decay --record` on a lab's record tapped by joint 2's motor (the light arm of
-/// the family, `flexarm_sim::lab`): the report says what the record held (five torque pulses
+/// the family, `flexarm_host::lab`): the report says what the record held (five torque pulses
 /// 20 s apart, not the plan's ten taps of the patch), lists every mode the pencil found, and
 /// says how the models were tapped instead.
 #[test]
 fn identify_decay_reads_a_torque_tapped_record() {
-    use flexarm_sim::identify::family::{Kind, family};
+    use flexarm_host::identify::family::{Kind, family};
     let arm = family().into_iter().find(|a| a.name == "light").unwrap();
     let bench = arm.bench().unwrap();
-    let plan = flexarm_sim::lab::sized(&Kind::TorqueTaps.plan(&bench), 0.4).unwrap();
+    let plan = flexarm_host::lab::sized(&Kind::TorqueTaps.plan(&bench), 0.4).unwrap();
     let record = scratch(
         "torque_taps.csv",
-        &flexarm_sim::output::trace_csv(&flexarm_sim::lab::record(&plan).unwrap()),
+        &flexarm_host::output::trace_csv(&flexarm_host::lab::record(&plan).unwrap()),
     );
     let out = fresh_dir("identify-decay-torque");
     let (ok, stdout, stderr) = sim(&[
@@ -948,19 +948,19 @@ fn identify_decay_reads_a_torque_tapped_record() {
 /// that names the file and the gate, exit status 1, nothing written.
 #[test]
 fn identify_refuses_clipped_records_and_missing_channels() {
-    use flexarm_sim::identify::family::{Kind, family};
-    use flexarm_sim::lab::Shape;
+    use flexarm_host::identify::family::{Kind, family};
+    use flexarm_host::lab::Shape;
     let arm = family().into_iter().find(|a| a.name == "light").unwrap();
     // Ten seconds of noise on the patch (100 V) and on joint 2 (2 N·m) on `bench`.
-    let record = |name: &str, bench: flexarm_sim::sim::SimConfig| {
+    let record = |name: &str, bench: flexarm_host::sim::SimConfig| {
         let mut plan = Kind::Random.plan(&bench);
         for e in &mut plan.excite {
             if let Shape::Random { seconds, .. } = &mut e.shape {
                 *seconds = 10.0;
             }
         }
-        let trace = flexarm_sim::lab::record(&plan).unwrap();
-        scratch(name, &flexarm_sim::output::trace_csv(&trace))
+        let trace = flexarm_host::lab::record(&plan).unwrap();
+        scratch(name, &flexarm_host::output::trace_csv(&trace))
     };
     let mut film = arm.bench().unwrap();
     film.sensors.adc_range = 0.05;
@@ -1052,7 +1052,7 @@ fn refusal(name: &str, text: &str, args: &[&str]) -> String {
 fn every_toml_reader_names_the_line_and_the_key() {
     let run = ["run", "{}", "--no-plots"];
     let optimize = ["optimize", "{}", "--no-plots", "--out", "/nonexistent/o"];
-    let fragment = flexarm_sim::firmware_params::paper_fragment().unwrap();
+    let fragment = flexarm_host::firmware_params::paper_fragment().unwrap();
     let computed = fragment.replace("modes = \"paper\"", "modes = \"computed\"");
     // The computed modes with a mass integral that is not a number.
     let nan = computed
@@ -1191,7 +1191,7 @@ fn every_toml_reader_names_the_line_and_the_key() {
 #[test]
 fn fixed_length_lists_refuse_extra_values_like_missing_ones() {
     let trapezoid = "[trajectory]\nkind = \"trapezoid\"\n";
-    let fragment = flexarm_sim::firmware_params::paper_fragment().unwrap();
+    let fragment = flexarm_host::firmware_params::paper_fragment().unwrap();
     let run = ["run", "{}", "--no-plots"];
     let model = [
         "identify",

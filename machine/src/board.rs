@@ -1,6 +1,6 @@
 //! The board: everything the control loops read and write, behind one small trait, so that
 //! the loops never touch a register. The firmware's boards implement it (the hardware's
-//! registers, the QEMU board's simulated arm), and so do the host's (`flexarm_sim::rig`: a
+//! registers, the QEMU board's simulated arm), and so do the host's (`flexarm_host::rig`: a
 //! simulated plant with its sensors).
 //!
 //! Units: angles in rad, film voltage in V (at the sensor, before any gain), torques in N·m,

@@ -1,7 +1,7 @@
 //! # flexarm-machine
 //!
 //! What a flexarm board does every period, once, for every board: the firmware's RTIC tasks
-//! lock their resources and call these functions; the host's rig (`flexarm_sim::rig`) calls
+//! lock their resources and call these functions; the host's rig (`flexarm_host::rig`) calls
 //! the same functions in the same order on a simulated board. `no_std`, `f32`, no heap, no
 //! `unsafe`; what stays in the firmware is the hardware: registers, clocks, the USART, the
 //! emergency paths, the stack and the fault injection.

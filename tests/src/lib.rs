@@ -1,12 +1,12 @@
 //! Integration tests live in `tests/`; here, what they share: the firmware's boards on the
-//! host (`flexarm_sim::rig::Rig`) with the QEMU board's simulated arm.
+//! host (`flexarm_host::rig::Rig`) with the QEMU board's simulated arm.
 
 use flexarm_core::Vector4;
+use flexarm_host::firmware_params::paper_board;
+use flexarm_host::rig::Rig;
 use flexarm_link::msg::Board;
 use flexarm_machine::BoardConfig;
 use flexarm_machine::simulated::SimulatedArm;
-use flexarm_sim::firmware_params::paper_board;
-use flexarm_sim::rig::Rig;
 
 /// The configuration a board of kind `board` boots with from the default model file (the
 /// paper's arm and patch, `k_c = 30 s`): the firmware's generated `HARDWARE` (piezo 10 kHz,

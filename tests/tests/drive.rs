@@ -1,5 +1,5 @@
 //! The drive's modes in closed loop with the QEMU board's simulated arm, as the hardware
-//! board's firmware runs them on the host's rig (`flexarm_sim::rig`: `f32`, motor loop 1 kHz,
+//! board's firmware runs them on the host's rig (`flexarm_host::rig`: `f32`, motor loop 1 kHz,
 //! piezo loop 10 kHz, the generated `HARDWARE` configuration): disarmed outputs are safe while the observer
 //! follows; arm holds; a move is validated whole or refused with its reason; a stop decelerates
 //! within the limits and holds; a fault is cleared only when its cause is gone.
@@ -11,8 +11,8 @@ use flexarm_core::Vector2;
 use flexarm_core::Vector4;
 use flexarm_core::drive::{Mode, MoveRequest, Refused, Waypoint};
 use flexarm_core::observer::Measurement;
+use flexarm_host::rig::Rig;
 use flexarm_link::msg::Board;
-use flexarm_sim::rig::Rig;
 use flexarm_tests::{Injection, TestArm, firmware, test_rig};
 
 struct Bench {
@@ -393,6 +393,9 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
         (Tunable::Kc, -3.0, TuneError::OutOfRange),
         (Tunable::CutoffHz, 1e9, TuneError::OutOfRange),
         (Tunable::TauMax(0), 12.0, TuneError::OutOfRange),
+        // Under the floor, 1 % of the 10 N·m ceiling (issue 36: 1e-30 was accepted).
+        (Tunable::TauMax(0), 1e-30, TuneError::OutOfRange),
+        (Tunable::TauMax(1), 0.09, TuneError::OutOfRange),
         (Tunable::VaMax, 180.0, TuneError::OutOfRange),
         (Tunable::VaMin, 5.0, TuneError::OutOfRange),
         (Tunable::VaMin, -180.0, TuneError::OutOfRange),
@@ -415,6 +418,11 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
         t.get(&b.rig.control.ctrl, Tunable::TauMax(2)),
         Err(TuneError::Unknown)
     );
+    // Just above the floor: accepted (and put back).
+    let ceiling = b.rig.control.ctrl.motor.limits.tau_max.y;
+    b.tune(&mut t, Tunable::TauMax(1), 0.2).unwrap();
+    assert_eq!(t.get(&b.rig.control.ctrl, Tunable::TauMax(1)), Ok(0.2));
+    b.tune(&mut t, Tunable::TauMax(1), ceiling).unwrap();
     // An asymmetric window for a patch rated −30 V … +175 V: the law saturates there.
     b.tune(&mut t, Tunable::VaMin, -30.0).unwrap();
     assert_eq!(t.get(&b.rig.control.ctrl, Tunable::VaMin), Ok(-30.0));

@@ -1,5 +1,5 @@
 //! The firmware's boot move on the host, with the code the firmware runs: the host's rig
-//! (`flexarm_sim::rig`) of each board's generated configuration on the QEMU board's simulated
+//! (`flexarm_host::rig`) of each board's generated configuration on the QEMU board's simulated
 //! arm, the drive armed at boot and the paper's trapezoid started, as the QEMU verdict run does.
 //! These runs justify the bounds the QEMU run checks (`firmware/src/config.rs`, `bounds`;
 //! `docs/firmware.md`): `cargo test -p flexarm-tests --test firmware_loop -- --nocapture`.

@@ -4,7 +4,7 @@
 
 use flexarm_core::Vector4;
 use flexarm_core::trajectory::{Circle, JointTrajectory, Trapezoid};
-use flexarm_sim::sim::{SimConfig, simulate};
+use flexarm_host::sim::{SimConfig, simulate};
 
 #[test]
 fn joint_gains_track_far_better_than_the_printed_modal_gains() {

@@ -1,5 +1,5 @@
 //! Motion safety in closed loop (`flexarm_core::motion` through the drive), the hardware
-//! board's firmware on the host's rig (`flexarm_sim::rig`: motor loop 1 kHz, piezo loop 10 kHz)
+//! board's firmware on the host's rig (`flexarm_host::rig`: motor loop 1 kHz, piezo loop 10 kHz)
 //! with the QEMU board's simulated arm and faults injected between the arm and the controller
 //! (`flexarm_tests::TestArm`): a reversed encoder, a frozen encoder, a rigid obstacle,
 //! a reference that runs into the end of the range, a stalled motor heating up. While the
@@ -12,8 +12,8 @@ use flexarm_core::drive::{Mode, MoveRequest};
 use flexarm_core::observer::Measurement;
 use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
 use flexarm_core::{Fault, Vector2, Vector4};
+use flexarm_host::rig::Rig;
 use flexarm_link::msg::Board;
-use flexarm_sim::rig::Rig;
 use flexarm_tests::{Injection, TestArm, firmware, test_rig};
 
 struct Bench {

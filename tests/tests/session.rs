@@ -1,9 +1,10 @@
 //! The command link's session (`flexarm_machine::session`) on the host, without QEMU: the QEMU
-//! board's firmware (its generated configuration) on the host's rig (`flexarm_sim::rig`), each
+//! board's firmware (its generated configuration) on the host's rig (`flexarm_host::rig`), each
 //! command answered between two periods as the firmware's idle task answers it. Every command,
 //! its refusals, the subscription's frames and the fault recorder's pages.
 
 use flexarm_core::Fault;
+use flexarm_host::rig::Rig;
 use flexarm_link::msg::{
     Board, Channels, Command, MAX_CHANNELS, Mode, Move, Param, Refusal, Reply, SAMPLES_PER_PAGE,
     Telemetry, Waypoint,
@@ -11,7 +12,6 @@ use flexarm_link::msg::{
 use flexarm_link::{Request, VERSION};
 use flexarm_machine::session::MIN_LINK_TIMEOUT_PERIODS;
 use flexarm_machine::simulated::SimulatedArm;
-use flexarm_sim::rig::Rig;
 use flexarm_tests::{firmware, rig};
 
 fn qemu() -> Rig<SimulatedArm> {

@@ -12,10 +12,10 @@ use std::time::Duration;
 
 use flexarm_console::client::{Client, ConsoleError, Timing};
 use flexarm_console::transport::Link;
+use flexarm_host::rig::Rig;
 use flexarm_link::msg::{Board, Command, Mode, Move, Param, Reply};
 use flexarm_link::{DeviceMsg, MAX_FRAME, encode};
 use flexarm_machine::simulated::SimulatedArm;
-use flexarm_sim::rig::Rig;
 use flexarm_tests::{firmware, rig};
 
 /// What the line did to the bytes, and what the rig saw.

@@ -1,14 +1,14 @@
 //! The time base: a move started after days of uptime runs exactly like one started at boot,
-//! on the host's rig of the hardware board's firmware (`flexarm_sim::rig`).
+//! on the host's rig of the hardware board's firmware (`flexarm_host::rig`).
 
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)] // tests may index and unwrap
 
 use flexarm_core::control::motor::MotorLaw;
 use flexarm_core::time::{MoveClock, Ticks};
 use flexarm_core::trajectory::Trapezoid;
+use flexarm_host::rig::Rig;
 use flexarm_link::msg::Board;
 use flexarm_machine::simulated::SimulatedArm;
-use flexarm_sim::rig::Rig;
 use flexarm_tests::firmware;
 
 const MOTOR_HZ: u32 = 1000;

@@ -23,11 +23,11 @@ use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
 use flexarm_core::trajectory::{Circle, JointTrajectory, Profile, Trapezoid};
+use flexarm_host::sim::{SimConfig, simulate};
 use flexarm_link::msg::{
     Board, Channels, Command, Mode, Move, Param, Refusal, Reply, Telemetry, Waypoint,
 };
 use flexarm_link::{Decoder, DeviceMsg, MAX_FRAME, Request, VERSION, encode};
-use flexarm_sim::sim::{SimConfig, simulate};
 
 /// Telemetry channels of the session: every one: errors (2), θ̂ (2), δ̂ (2), τ (2), V_a (1),
 /// V_f (1), loads (2).
@@ -233,7 +233,7 @@ fn replayed(f: &Telemetry) -> Vec<u32> {
 }
 
 /// Bit-identical replay: the session's frames from its subscription to the end of its first
-/// move, every motor period of them, reproduced by the host's rig (`flexarm_sim::rig`) running the
+/// move, every motor period of them, reproduced by the host's rig (`flexarm_host::rig`) running the
 /// QEMU board's firmware (its generated configuration, whose hash must be the handshake's
 /// `params_hash`) on the QEMU board's simulated arm, both from boot: every compared value
 /// (`replayed`) of every frame equal to the bit. The commands that acted before the move's end:
@@ -322,7 +322,7 @@ const PATH: [(f32, f32, f32); 12] = [
 ];
 
 /// The largest |θ̂ − θ_d| of [`PATH`] from rest at (0, 0) on the host, as the QEMU board runs it:
-/// its firmware (the generated `QEMU` configuration) on the host's rig (`flexarm_sim::rig`) with
+/// its firmware (the generated `QEMU` configuration) on the host's rig (`flexarm_host::rig`) with
 /// the QEMU board's simulated arm, given the session's own commands (`k_c` = 3.162 s, arm, the
 /// waypoints in chunks, the move).
 fn path_simulation() -> Result<f32, String> {
@@ -330,7 +330,7 @@ fn path_simulation() -> Result<f32, String> {
         flexarm_tests::firmware(flexarm_link::msg::Board::Qemu),
         [0.0, 0.0],
     );
-    let ask = |rig: &mut flexarm_sim::rig::Rig<_>, command: Command| match rig.answer(command) {
+    let ask = |rig: &mut flexarm_host::rig::Rig<_>, command: Command| match rig.answer(command) {
         Reply::Done => Ok(()),
         r => Err(format!("the host's rig refused the path: {r:?}")),
     };

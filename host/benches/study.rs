@@ -1,4 +1,4 @@
-//! Speed of the simulator: `cargo bench -p flexarm-sim --bench study`.
+//! Speed of the simulator: `cargo bench -p flexarm-host --bench study`.
 //! One 5 s scenario at the default rates (plant 0.1 ms, motor 1 kHz, piezo 10 kHz), and the
 //! whole `paper` study (12 runs, in parallel on the machine's cores); the same scenario on the
 //! truth plant with six modes, motor models and transducers (issue 14: at least 100× faster
@@ -7,9 +7,9 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use flexarm_core::control::piezo::PiezoGains;
 use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
-use flexarm_sim::sim::{SimConfig, simulate};
-use flexarm_sim::study::{self, Options};
-use flexarm_sim::truth_plant::TruthSpec;
+use flexarm_host::sim::{SimConfig, simulate};
+use flexarm_host::study::{self, Options};
+use flexarm_host::truth_plant::TruthSpec;
 
 fn bench(c: &mut Criterion) {
     let traj = JointTrajectory::Trapezoid(Trapezoid::paper());

@@ -12,7 +12,7 @@
 //! after each ramp and its reaction torque on the joint averages out only over whole periods.
 //! On the truth plant, with 2 rad/s² ramps, 0.3 s of settling and the cruise 1 rad of motion at
 //! 0.8 rad/s left (0.05 s), joint 1's viscous coefficient came out 22 % low; with 1 rad/s²,
-//! 1 s and 2 s, within 4.2 % (`cargo test -p flexarm-sim --test identify`).
+//! 1 s and 2 s, within 4.2 % (`cargo test -p flexarm-host --test identify`).
 //!
 //! ## Friction: the fit
 //! `τ_f(v) = F_c sign(v) + F_v v` per joint, Coulomb [N·m] and viscous [N·m·s/rad], by least

@@ -4,14 +4,15 @@
 //! - `grid.csv`: every patch of the grid with its best gain, `J`, `J0`, `W0`, frequencies and
 //!   slope differences;
 //! - `summary.md`: the text this function returns;
-//! - `piezo.toml`: the chosen patch as a `[piezo]` fragment (see [`crate::fragment`]);
+//! - `piezo.toml`: the chosen patch as a `[piezo]` fragment (see [`flexarm_beam::fragment`]);
 //! - with `plots`: `heatmap.svg` (`J`), `heatmap_share.svg` (`J0/W0`), `gain.svg`, `modes.svg`.
 
-use crate::config::Config;
-use crate::design::{Amplifier, DesignModel, Normalization, Objective, Weights};
-use crate::fragment::piezo_fragment;
-use crate::optimize::{Bounds, Optimum, Sweep, evaluate, refine, sweep};
+use crate::optimize::{Bounds, Sweep, refine, sweep};
 use crate::plot;
+use flexarm_beam::config::Config;
+use flexarm_beam::design::{Amplifier, DesignModel, Normalization, Objective, Weights};
+use flexarm_beam::fragment::piezo_fragment;
+use flexarm_beam::point::{Optimum, evaluate};
 use flexarm_core::params::ArmParams;
 use std::error::Error;
 use std::fmt::Write as _;

@@ -6,7 +6,7 @@ use flexarm_core::params::ArmParams;
 use flexarm_core::plant::{State, rk4_step};
 use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
 use flexarm_core::{Vector2, Vector4};
-use flexarm_sim::sim::{Sensors, SimConfig, StateSource, simulate};
+use flexarm_host::sim::{Sensors, SimConfig, StateSource, simulate};
 
 fn undamped() -> Model<f64> {
     let mut p = ArmParams::<f64>::default();
@@ -119,18 +119,18 @@ fn incompatible_rates_are_refused() {
 
 #[test]
 fn montecarlo_small_batch_is_stable_and_reported() {
-    let batches = flexarm_sim::montecarlo::run(&[0.1], 8, 7, None, false).unwrap();
+    let batches = flexarm_host::montecarlo::run(&[0.1], 8, 7, None, false).unwrap();
     assert_eq!(batches[0].runs.len(), 8);
     assert!(batches[0].stable() == 1.0, "±10 % keeps every run stable");
-    let report = flexarm_sim::montecarlo::report(&batches);
+    let report = flexarm_host::montecarlo::report(&batches);
     assert!(
         report.contains("±10 %") && report.contains("| 8 |"),
         "{report}"
     );
     // The perturbation really changes the plant, within its bounds.
     let nominal = flexarm_core::params::ArmParams::<f64>::default();
-    let mut rng = flexarm_sim::sim::Rng::new(3);
-    let p = flexarm_sim::montecarlo::perturb(&nominal, 0.2, &mut rng);
+    let mut rng = flexarm_host::sim::Rng::new(3);
+    let p = flexarm_host::montecarlo::perturb(&nominal, 0.2, &mut rng);
     assert!(p.m2 != nominal.m2 && (p.m2 / nominal.m2 - 1.0).abs() <= 0.2);
     assert!((p.modes.omega.x / nominal.modes.omega.x - 1.0).abs() <= 0.2);
 }
@@ -147,7 +147,7 @@ fn rk4_agrees_with_an_adaptive_dormand_prince_cross_check() {
     for _ in 0..5_000 {
         x = rk4_step(&model, &x, &u, 1e-4).unwrap();
     }
-    let (y, steps) = flexarm_sim::plant::dopri45(&model, &x0, &u, 0.5, 1e-11, 1e-13).unwrap();
+    let (y, steps) = flexarm_host::plant::dopri45(&model, &x0, &u, 0.5, 1e-11, 1e-13).unwrap();
     let (dq, dv) = ((x.q - y.q).norm(), (x.qd - y.qd).norm());
     println!(
         "RK4 (0.1 ms) vs Dormand-Prince ({steps} steps) after 0.5 s: |dq| = {dq:.2e}, |dq̇| = {dv:.2e}"

@@ -3,9 +3,9 @@
 //! with the reason.
 
 use flexarm_core::Vector2;
-use flexarm_sim::identify::{Cruise, IdentifyError, fit, friction_experiment, moves};
-use flexarm_sim::sim::{Sensors, SimConfig, StateSource};
-use flexarm_sim::truth_plant::TruthSpec;
+use flexarm_host::identify::{Cruise, IdentifyError, fit, friction_experiment, moves};
+use flexarm_host::sim::{Sensors, SimConfig, StateSource};
+use flexarm_host::truth_plant::TruthSpec;
 
 /// The truth plant of the study (six modes, geared drives with friction, real amplifiers), the
 /// observer-based controller on a realistic board, as `cargo sim identify friction` runs it.
@@ -32,7 +32,7 @@ fn friction_is_recovered_within_ten_percent() {
     let (cruises, record) =
         friction_experiment(&cfg, Vector2::new(-1.2, -1.2), &[0.1, 0.2, 0.3, 0.5], 2.0).unwrap();
     assert_eq!(cruises.len(), 16);
-    let found = flexarm_sim::identify::find_cruises(&record).unwrap();
+    let found = flexarm_host::identify::find_cruises(&record).unwrap();
     assert_eq!(found.len(), 16);
     for (c, f) in cruises.iter().zip(&found) {
         println!(
@@ -47,7 +47,7 @@ fn friction_is_recovered_within_ten_percent() {
         assert!((f.speed / c.speed - 1.0).abs() < 0.02, "{c:?} {f:?}");
         assert!((f.torque - c.torque).abs() < 2e-3, "{c:?} {f:?}");
     }
-    let refit = flexarm_sim::identify::fit_joints(&found).unwrap();
+    let refit = flexarm_host::identify::fit_joints(&found).unwrap();
     for (joint, f) in refit.iter().enumerate() {
         let m = spec.motors[joint];
         let (ec, ev) = (f.coulomb / m.coulomb - 1.0, f.viscous / m.viscous - 1.0);
@@ -62,15 +62,15 @@ fn friction_is_recovered_within_ten_percent() {
     // A record without cruises (the joints held) is refused with the gate.
     let held: Vec<_> = record[..3000]
         .iter()
-        .map(|s| flexarm_sim::sim::Sample {
-            x: flexarm_sim::plant::State {
+        .map(|s| flexarm_host::sim::Sample {
+            x: flexarm_host::plant::State {
                 q: nalgebra::Vector4::new(-1.2, -1.2, 0.0, 0.0),
                 ..s.x
             },
             ..*s
         })
         .collect();
-    let e = flexarm_sim::identify::find_cruises(&held).unwrap_err();
+    let e = flexarm_host::identify::find_cruises(&held).unwrap_err();
     assert!(
         e.to_string()
             .contains("gate `excitation`: joint 1 has no cruise"),
@@ -134,7 +134,7 @@ fn data_that_cannot_determine_the_friction_is_refused() {
 /// with it runs a truth plant with the identified friction.
 #[test]
 fn the_identified_friction_is_a_plant_the_simulator_reads() {
-    use flexarm_sim::identify::{Friction, plant_fragment};
+    use flexarm_host::identify::{Friction, plant_fragment};
     let f = |coulomb, viscous| Friction {
         coulomb,
         viscous,
@@ -145,7 +145,7 @@ fn the_identified_friction_is_a_plant_the_simulator_reads() {
         "name = \"identified\"\n[trajectory]\nkind = \"trapezoid\"\n{}kind = \"truth\"\nmodes = 2\n",
         fragment
     );
-    let s = flexarm_sim::scenario::parse(&text).unwrap();
+    let s = flexarm_host::scenario::parse(&text).unwrap();
     let truth = s.config.truth.expect("a truth plant");
     assert_eq!(
         [truth.motors[0].coulomb, truth.motors[1].coulomb],
@@ -168,7 +168,7 @@ fn no_friction_is_found_where_there_is_none() {
     };
     let (cruises, _) =
         friction_experiment(&cfg, Vector2::new(-1.2, -1.2), &[0.1, 0.2, 0.3, 0.5], 2.0).unwrap();
-    let fits = flexarm_sim::identify::fit_joints(&cruises).unwrap();
+    let fits = flexarm_host::identify::fit_joints(&cruises).unwrap();
     let drive = TruthSpec::default().motors[0];
     for (j, f) in fits.iter().enumerate() {
         println!(
@@ -187,14 +187,14 @@ fn no_friction_is_found_where_there_is_none() {
 
 mod modes_and_model {
     use flexarm_core::params::ArmParams;
-    use flexarm_sim::identify::IdentifyError;
-    use flexarm_sim::identify::inertia::{InertiaPlan, Rigid, fit_inertia, inertia_experiment};
-    use flexarm_sim::identify::modal::{FitSettings, fit_modes};
-    use flexarm_sim::identify::model::{closed_loop, identified_model, model_fragment};
-    use flexarm_sim::identify::modes::{ModesPlan, modes_experiment};
-    use flexarm_sim::identify::record::ModesRecord;
-    use flexarm_sim::identify::workflow::CHECK_PIEZO;
-    use flexarm_sim::sim::SimConfig;
+    use flexarm_host::identify::IdentifyError;
+    use flexarm_host::identify::inertia::{InertiaPlan, Rigid, fit_inertia, inertia_experiment};
+    use flexarm_host::identify::modal::{FitSettings, fit_modes};
+    use flexarm_host::identify::model::{closed_loop, identified_model, model_fragment};
+    use flexarm_host::identify::modes::{ModesPlan, modes_experiment};
+    use flexarm_host::identify::record::ModesRecord;
+    use flexarm_host::identify::workflow::CHECK_PIEZO;
+    use flexarm_host::sim::SimConfig;
 
     fn record(cfg: &SimConfig, plan: &ModesPlan) -> ModesRecord {
         let trace = modes_experiment(cfg, plan).unwrap();
@@ -248,7 +248,7 @@ mod modes_and_model {
             assert!((x / t - 1.0).abs() < 0.05, "{name}");
         }
         let (arm, patch, _) = identified_model(
-            &flexarm_sim::identify::geometry::Geometry::default(),
+            &flexarm_host::identify::geometry::Geometry::default(),
             &ArmParams::default(),
             &inertia.rigid,
             &fit,
@@ -270,7 +270,7 @@ mod modes_and_model {
         // command replayed): the second mode within 1 % in frequency and 15 % in damping, the
         // first within 5 % and 50 % (`FIRST_HELD_MODE`).
         {
-            use flexarm_sim::identify::decay::{
+            use flexarm_host::identify::decay::{
                 DecayPlan, DecaySettings, decay_experiment, fit_decay, predict, replay,
             };
             let (plan, set) = (DecayPlan::default(), DecaySettings::default());
@@ -292,7 +292,7 @@ mod modes_and_model {
             "name = \"x\"\n[trajectory]\nkind = \"trapezoid\"\n{}",
             model_fragment(&arm, &patch, 3.162)
         );
-        let sc = flexarm_sim::scenario::parse(&text).unwrap();
+        let sc = flexarm_host::scenario::parse(&text).unwrap();
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(1.0);
         let (a2, p2) = (sc.config.arm, sc.config.patch);
         for (x, y) in [
@@ -387,14 +387,14 @@ mod modes_and_model {
 mod decay {
     use flexarm_core::control::piezo::PiezoPatch;
     use flexarm_core::params::ArmParams;
-    use flexarm_sim::identify::IdentifyError;
-    use flexarm_sim::identify::decay::{
+    use flexarm_host::identify::IdentifyError;
+    use flexarm_host::identify::decay::{
         DecayFit, DecayPlan, DecaySettings, decay_experiment, fit_decay, predict, replay,
     };
-    use flexarm_sim::identify::modes::{ModesPlan, modes_experiment};
-    use flexarm_sim::identify::record::ModesRecord;
+    use flexarm_host::identify::modes::{ModesPlan, modes_experiment};
+    use flexarm_host::identify::record::ModesRecord;
 
-    fn record(cfg: &flexarm_sim::sim::SimConfig, plan: &DecayPlan) -> ModesRecord {
+    fn record(cfg: &flexarm_host::sim::SimConfig, plan: &DecayPlan) -> ModesRecord {
         let trace = decay_experiment(cfg, plan).unwrap();
         ModesRecord::from_trace(&trace, 10.0, (-200.0, 200.0)).unwrap()
     }
@@ -427,6 +427,73 @@ mod decay {
                 (q.omega / m.omega - 1.0, q.zeta / m.zeta - 1.0)
             })
             .collect()
+    }
+
+    /// A synthetic record of taps of the patch, each followed by the film's decay of two modes
+    /// (`(f [Hz], ζ)`), `spacing` [s] apart, sampled at 1 kHz.
+    fn tapped(modes: &[(f64, f64)], taps: usize, spacing: f64) -> ModesRecord {
+        let dt = 1e-3;
+        let (per, width) = ((spacing / dt) as usize, 20);
+        let n = taps * per + per / 2;
+        let (mut v_a, mut v_f) = (vec![0.0; n], vec![0.0; n]);
+        for i in 0..taps {
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let start = per / 2 + i * per;
+            v_a[start..start + width].fill(100.0 * sign);
+            for (k, v) in v_f.iter_mut().enumerate().skip(start + width) {
+                let t = (k - start - width) as f64 * dt;
+                *v += sign
+                    * modes
+                        .iter()
+                        .map(|&(f, z)| {
+                            let w = std::f64::consts::TAU * f;
+                            0.5 * (-z * w * t).exp() * (w * (1.0 - z * z).sqrt() * t).sin()
+                        })
+                        .sum::<f64>();
+            }
+        }
+        ModesRecord {
+            dt,
+            v_a,
+            v_f,
+            theta: [vec![0.0; n], vec![1.5; n]],
+            tau: [vec![0.0; n], vec![0.0; n]],
+            v_f_range: 10.0,
+            v_a_window: (-200.0, 200.0),
+        }
+    }
+
+    /// A first mode below the default band's 1.5 Hz (the family's slow arm: 0.5 Hz) is out of
+    /// the default fit's reach and found with a band that reaches it (`--band 0.3,40`), the
+    /// decays then as long as three of its periods; a band above 0.4 of the record's rate is
+    /// refused with `--band` named.
+    #[test]
+    fn a_band_set_by_the_user_reaches_a_slow_first_mode() {
+        let truth = [(0.6, 0.02), (5.0, 0.02)];
+        let rec = tapped(&truth, 4, 12.0);
+        let default = DecaySettings::for_band(None, rec.dt).unwrap();
+        assert_eq!(default, DecaySettings::default());
+        let m = data_error(fit_decay(&rec, &default));
+        assert!(m.contains("mode 2 not seen in the decay"), "{m}");
+
+        let low = DecaySettings::for_band(Some((0.3, 40.0)), rec.dt).unwrap();
+        assert!(low.window >= 10.0, "{low:?}");
+        let fit = fit_decay(&rec, &low).unwrap();
+        let found = fit.strongest(2);
+        assert_eq!(found.len(), 2, "{fit:?}");
+        for (m, (f, z)) in found.iter().zip(truth) {
+            let ef = m.omega / (std::f64::consts::TAU * f) - 1.0;
+            assert!(ef.abs() < 5e-3, "{f} Hz: found {ef:+.2e}");
+            assert!((m.zeta / z - 1.0).abs() < 0.15, "{f} Hz: ζ {}", m.zeta);
+        }
+
+        let e = DecaySettings::for_band(Some((1.0, 450.0)), rec.dt).unwrap_err();
+        assert!(
+            e.contains("--band 1,450") && e.contains("400.0 Hz at most"),
+            "{e}"
+        );
+        let e = DecaySettings::for_band(Some((5.0, 2.0)), rec.dt).unwrap_err();
+        assert!(e.contains("0 < LOW < HIGH"), "{e}");
     }
 
     /// The held arm's decay on the truth plant is what the controller built from the true

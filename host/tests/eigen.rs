@@ -1,14 +1,14 @@
-//! The spillover study's eigen-solver (`flexarm_sim::eigen`) against matrices whose spectrum is
+//! The spillover study's eigen-solver (`flexarm_host::eigen`) against matrices whose spectrum is
 //! known, against 40-digit references on the loop nalgebra gets wrong, and by the backward error
 //! of every eigenvalue of the study's own loops. About 0.1 s.
-//! `cargo test -p flexarm-sim --test eigen -- --nocapture` prints the figures.
+//! `cargo test -p flexarm-host --test eigen -- --nocapture` prints the figures.
 
 use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::params::ArmParams;
-use flexarm_sim::eigen::{EigenError, backward_error, eigenvalues, spectral_radius};
-use flexarm_sim::spillover::{ModalLink, PiezoLoop, closed_loop};
-use flexarm_sim::spillover_study::loops;
-use flexarm_sim::truth_plant::TruthSpec;
+use flexarm_host::eigen::{EigenError, backward_error, eigenvalues, spectral_radius};
+use flexarm_host::spillover::{ModalLink, PiezoLoop, closed_loop};
+use flexarm_host::spillover_study::loops;
+use flexarm_host::truth_plant::TruthSpec;
 use nalgebra::{Complex, DMatrix};
 
 /// A deterministic pseudo-random sequence in [−1, 1) (a 64-bit LCG's top bits).

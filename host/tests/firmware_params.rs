@@ -5,11 +5,11 @@
 
 use flexarm_beam::design::{DesignModel, Weights};
 use flexarm_beam::fragment::{ModesChoice, piezo_fragment, read_piezo};
-use flexarm_beam::optimize::evaluate;
+use flexarm_beam::point::evaluate;
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::observer_gains::{GAIN_1KHZ, GAIN_100HZ};
 use flexarm_core::params::ArmParams;
-use flexarm_sim::firmware_params::{Names, design, paper_fragment, render};
+use flexarm_host::firmware_params::{Names, design, paper_fragment, render};
 
 fn repo(path: &str) -> String {
     format!("{}/../{path}", env!("CARGO_MANIFEST_DIR"))
@@ -32,7 +32,7 @@ fn generated_file_is_up_to_date_with_the_fragment() {
 #[test]
 fn the_firmware_build_knows_the_generators_first_line() {
     let build = std::fs::read_to_string(repo("firmware/build.rs")).unwrap();
-    let first = flexarm_sim::firmware_params::GENERATED_FIRST_LINE;
+    let first = flexarm_host::firmware_params::GENERATED_FIRST_LINE;
     assert!(
         build.contains("const FIRST_LINE: &str =") && build.contains(&format!("{first:?};")),
         "firmware/build.rs does not check for {first:?}"
@@ -127,7 +127,7 @@ fn identified() -> (ArmParams<f64>, PiezoPatch<f64>, String) {
     );
     let mut patch = PiezoPatch::<f64>::paper();
     patch.slope_diff *= 1.1f64.sqrt();
-    let text = flexarm_sim::identify::model::model_fragment(&arm, &patch, 3.162);
+    let text = flexarm_host::identify::model::model_fragment(&arm, &patch, 3.162);
     (arm, patch, text)
 }
 

@@ -1,10 +1,10 @@
 //! Spillover of the sampled piezo loop into modes the controller does not know
-//! (`flexarm_sim::spillover`). `cargo test -p flexarm-sim --test spillover -- --nocapture`
+//! (`flexarm_host::spillover`). `cargo test -p flexarm-host --test spillover -- --nocapture`
 //! prints the margins.
 
 use flexarm_beam::design::DesignModel;
 use flexarm_core::control::piezo::PiezoPatch;
-use flexarm_sim::spillover::{ModalLink, PiezoLoop, gain_margin, spectral_radius};
+use flexarm_host::spillover::{ModalLink, PiezoLoop, gain_margin, spectral_radius};
 
 /// The design beam (the paper's section, aluminium) with the paper's patch, `n` modes.
 fn link(n: usize) -> ModalLink {
@@ -114,8 +114,8 @@ fn margins_of_the_shipped_piezo_loop() {
         println!("  {label}: {}", row.join("; "));
     }
     // Where the ten-mode loop goes unstable at the shipped gain.
-    let m = flexarm_sim::spillover::closed_loop(&link(10), &FIRMWARE);
-    for l in flexarm_sim::eigen::eigenvalues(&m)
+    let m = flexarm_host::spillover::closed_loop(&link(10), &FIRMWARE);
+    for l in flexarm_host::eigen::eigenvalues(&m)
         .unwrap()
         .iter()
         .filter(|l| l.norm() > 1.0)
@@ -132,7 +132,7 @@ fn margins_of_the_shipped_piezo_loop() {
 fn an_unstable_margin_is_a_growing_vibration() {
     // The eigenvalue verdict checked by iterating the loop: with ten modes and no physical
     // roll-off the shipped gain makes a vibration grow; with two modes it decays.
-    use flexarm_sim::spillover::closed_loop;
+    use flexarm_host::spillover::closed_loop;
     for (n, grows) in [(10, true), (2, false)] {
         let l = link(n);
         let m = closed_loop(&l, &FIRMWARE);
@@ -209,8 +209,8 @@ fn margins_with_a_real_amplifier() {
 /// robust, the design rule's gain is, and the closed loop shows it.
 #[test]
 fn the_study_finds_the_shipped_gain_unstable_and_the_rule_robust() {
-    use flexarm_sim::spillover_study::{MARGIN, run};
-    use flexarm_sim::truth_plant::TruthSpec;
+    use flexarm_host::spillover_study::{MARGIN, run};
+    use flexarm_host::truth_plant::TruthSpec;
     let r = run(
         &TruthSpec {
             modes: 10,
@@ -244,7 +244,7 @@ fn the_study_finds_the_shipped_gain_unstable_and_the_rule_robust() {
         rule.tail_delta_abs[0] * 100.0 < shipped.tail_delta_abs[0],
         "{rule:?}\n{shipped:?}"
     );
-    println!("{}", flexarm_sim::spillover_study::markdown(&r));
+    println!("{}", flexarm_host::spillover_study::markdown(&r));
 }
 
 /// Question 5 (issue 35): the laws on the realistic board with ten modes, across the film's
@@ -252,20 +252,22 @@ fn the_study_finds_the_shipped_gain_unstable_and_the_rule_robust() {
 /// ten-mode truth plant and 135 margins).
 #[test]
 fn only_positive_position_feedback_keeps_its_margin_and_damping_at_every_bond() {
-    use flexarm_sim::spillover_study::{BONDS, MARGIN, compare, meeting_the_goal, recommend, scan};
-    use flexarm_sim::truth_plant::TruthSpec;
+    use flexarm_host::spillover_study::{
+        BONDS, MARGIN, compare, meeting_the_goal, recommend, scan,
+    };
+    use flexarm_host::truth_plant::TruthSpec;
     let spec = TruthSpec {
         modes: 10,
         ..TruthSpec::default()
     };
     let full = ModalLink::from_truth(&spec, &Default::default(), &PiezoPatch::paper()).unwrap();
-    let board = flexarm_sim::spillover_study::realistic(&spec, FIRMWARE);
+    let board = flexarm_host::spillover_study::realistic(&spec, FIRMWARE);
     // The rate law's design rule (question 3), from the 30 Hz column of its scan.
     let rule = recommend(
         &scan(
             &full,
             &board,
-            &flexarm_sim::spillover_study::gains(),
+            &flexarm_host::spillover_study::gains(),
             &[30.0],
         )
         .unwrap(),
@@ -311,7 +313,7 @@ fn only_positive_position_feedback_keeps_its_margin_and_damping_at_every_bond() 
 fn the_simulator_refuses_a_law_it_cannot_run() {
     use flexarm_core::control::irc::IrcGains;
     use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
-    use flexarm_sim::sim::{PiezoLawChoice, SimConfig, SimError, StateSource, simulate};
+    use flexarm_host::sim::{PiezoLawChoice, SimConfig, SimError, StateSource, simulate};
     let irc = IrcGains {
         gamma: 1e3f32,
         feedthrough: -5e-3,

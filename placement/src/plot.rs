@@ -1,7 +1,8 @@
 //! SVG figures (plotters, pure Rust; the text is left to the SVG viewer's fonts).
 
-use crate::design::{DesignModel, Weights};
-use crate::optimize::{Optimum, Sweep};
+use crate::optimize::Sweep;
+use flexarm_beam::design::{DesignModel, Weights};
+use flexarm_beam::point::Optimum;
 use plotters::prelude::*;
 use std::error::Error;
 use std::path::Path;

@@ -1,13 +1,13 @@
-//! The truth plant's mechanics (`flexarm_sim::truth`): the controller's model when it has the
+//! The truth plant's mechanics (`flexarm_host::truth`): the controller's model when it has the
 //! controller's two modes, a consistent Lagrangian with any number, energy kept and balanced.
-//! `cargo test -p flexarm-sim --test truth -- --nocapture` prints the figures.
+//! `cargo test -p flexarm-host --test truth -- --nocapture` prints the figures.
 
 use flexarm_beam::design::DesignModel;
 use flexarm_core::Vector4;
 use flexarm_core::model::Model;
 use flexarm_core::params::ArmParams;
 use flexarm_core::plant::{State, rk4_step};
-use flexarm_sim::truth::{Coords, LinkBody, TruthArm};
+use flexarm_host::truth::{Coords, LinkBody, TruthArm};
 use proptest::prelude::*;
 
 /// The design beam with the paper's patch and `n` modes, damped by `zeta`.

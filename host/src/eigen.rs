@@ -22,7 +22,7 @@
 //! `M + E` with `‖E‖` a small multiple of `ε‖M‖` (balanced). How far that moves an eigenvalue
 //! depends on its condition; [`backward_error`] measures `‖(M − λI)x‖ / (‖M‖ ‖x‖)` for a vector
 //! `x` from one step of inverse iteration, an upper bound of the smallest `‖E‖/‖M‖` that makes
-//! `λ` exact. `host-sim/tests/eigen.rs` checks known spectra (well-conditioned, scaled over 16
+//! `λ` exact. `host/tests/eigen.rs` checks known spectra (well-conditioned, scaled over 16
 //! decades, non-normal and clustered), the loop against 40-digit references, and the
 //! backward error of every eigenvalue of the study's loops (below 1e-15 of `‖M‖_F`).
 

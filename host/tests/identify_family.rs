@@ -1,5 +1,5 @@
-//! Identification on the family (issue 32, `flexarm_sim::identify::family`): five truth-plant
-//! arms unlike the paper's, each recorded the way a lab records (`flexarm_sim::lab`, written
+//! Identification on the family (issue 32, `flexarm_host::identify::family`): five truth-plant
+//! arms unlike the paper's, each recorded the way a lab records (`flexarm_host::lab`, written
 //! by the simulator's trace writer and read back), fitted by the same code as `cargo sim
 //! identify`. The bounds are the issue's and docs/identification.md's: on the records that
 //! excite the base on its own (a chirp with noise on joint 2's torque, noise on both), the
@@ -9,7 +9,7 @@
 //! identified model within 10 % of the true parameters' on Eq. 37 on every arm. A chirp on the
 //! patch alone gives the held arm's modes, which the fit says and the model step refuses.
 
-use flexarm_sim::identify::family::{ArmResult, Kind, family, identify_arm, nearest};
+use flexarm_host::identify::family::{ArmResult, Kind, family, identify_arm, nearest};
 
 fn run(name: &str, kinds: &[Kind]) -> ArmResult {
     let arm = family().into_iter().find(|a| a.name == name).unwrap();
@@ -46,7 +46,7 @@ fn check(r: &ArmResult) {
                     fit.held.is_some(),
                     "{name}: a chirp alone took the base as an input"
                 );
-                let e = flexarm_sim::identify::model::identified_model(
+                let e = flexarm_host::identify::model::identified_model(
                     &r.arm.geometry().unwrap(),
                     &r.arm.bench().unwrap().arm,
                     &r.inertia.1,
@@ -142,11 +142,11 @@ fn long_arm() {
 /// never moves, a missing channel.
 #[test]
 fn bad_records_are_refused_with_the_gate() {
-    use flexarm_sim::identify::family::swing;
-    use flexarm_sim::identify::inertia::fit_inertia;
-    use flexarm_sim::identify::modal::{FitSettings, fit_modes};
-    use flexarm_sim::identify::record::ModesRecord;
-    use flexarm_sim::lab::{self, Actuator, Excite, Shape};
+    use flexarm_host::identify::family::swing;
+    use flexarm_host::identify::inertia::fit_inertia;
+    use flexarm_host::identify::modal::{FitSettings, fit_modes};
+    use flexarm_host::identify::record::ModesRecord;
+    use flexarm_host::lab::{self, Actuator, Excite, Shape};
     let arm = family().into_iter().find(|a| a.name == "slow").unwrap();
     let bench = arm.bench().unwrap();
     let light = family()
@@ -156,7 +156,7 @@ fn bad_records_are_refused_with_the_gate() {
         .bench()
         .unwrap();
     let modes_error =
-        |trace: &[flexarm_sim::sim::Sample], range: f64| match ModesRecord::from_trace(
+        |trace: &[flexarm_host::sim::Sample], range: f64| match ModesRecord::from_trace(
             trace,
             range,
             (-200.0, 200.0),
@@ -175,7 +175,7 @@ fn bad_records_are_refused_with_the_gate() {
         seconds,
         seed,
     };
-    let record = |bench: &flexarm_sim::sim::SimConfig, from: f64, seconds: f64| {
+    let record = |bench: &flexarm_host::sim::SimConfig, from: f64, seconds: f64| {
         let mut plan = Kind::Random.plan(bench);
         plan.excite = vec![
             Excite {
@@ -216,7 +216,7 @@ fn bad_records_are_refused_with_the_gate() {
     );
     // The inertia record: zero torque, constant angles, negated torques.
     let swing = lab::record(&swing(&bench, 0.5)).unwrap();
-    let inertia_error = |t: &[flexarm_sim::sim::Sample]| fit_inertia(t).unwrap_err().to_string();
+    let inertia_error = |t: &[flexarm_host::sim::Sample]| fit_inertia(t).unwrap_err().to_string();
     let mut zero = swing.clone();
     zero.iter_mut()
         .for_each(|s| s.tau = flexarm_core::Vector2::zeros());
@@ -242,13 +242,13 @@ fn bad_records_are_refused_with_the_gate() {
     // A trace without its film column is no trace.
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
     let path = dir.join("missing_film.csv");
-    let text = flexarm_sim::output::trace_csv(&swing[..2000]);
+    let text = flexarm_host::output::trace_csv(&swing[..2000]);
     let cut: String = text
         .lines()
         .map(|l| l.rsplit_once(',').map_or(l, |(a, _)| a).to_string() + "\n")
         .collect();
     std::fs::write(&path, cut).unwrap();
-    let m = flexarm_sim::output::read_csv(&path).unwrap_err();
+    let m = flexarm_host::output::read_csv(&path).unwrap_err();
     assert!(m.contains(":1: not a flexarm trace"), "{m}");
     let mut rec = ModesRecord::from_trace(&high, 10.0, (-200.0, 200.0)).unwrap();
     rec.tau[1].clear();
@@ -274,10 +274,10 @@ fn bad_records_are_refused_with_the_gate() {
 /// gate or lists only the arm's modes (within 1 %; the held arm's first mode aside).
 #[test]
 fn decays_of_every_tap() {
-    use flexarm_sim::identify::decay::{DecaySettings, Tapper, fit_decay};
-    use flexarm_sim::identify::family::{HELD_BELOW, lab_record};
-    use flexarm_sim::identify::modal::{FitSettings, fit_modes};
-    use flexarm_sim::identify::record::ModesRecord;
+    use flexarm_host::identify::decay::{DecaySettings, Tapper, fit_decay};
+    use flexarm_host::identify::family::{HELD_BELOW, lab_record};
+    use flexarm_host::identify::modal::{FitSettings, fit_modes};
+    use flexarm_host::identify::record::ModesRecord;
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
     let set = DecaySettings::default();
     for arm in family() {

@@ -2,8 +2,8 @@
 //! zero, tiny, huge, the wrong type): every one is refused with one line naming its key, or runs
 //! to a finite result. No panic; no NaN in what a run reports.
 
-use flexarm_sim::scenario::parse;
-use flexarm_sim::sim::simulate;
+use flexarm_host::scenario::parse;
+use flexarm_host::sim::simulate;
 
 /// A short run so that every accepted case is cheap.
 const HEAD: &str = "name = \"surface\"\nduration = 0.5\ntail_window = 0.2\n";

@@ -6,10 +6,10 @@
 use flexarm_core::control::piezo::PiezoGains;
 use flexarm_core::motion::MotionLimits;
 use flexarm_core::trajectory::{Circle, JointTrajectory, Trapezoid};
-use flexarm_sim::montecarlo;
-use flexarm_sim::sim::{SimConfig, simulate};
-use flexarm_sim::study::{Options, paper_cases, run};
-use flexarm_sim::truth_plant::TruthSpec;
+use flexarm_host::montecarlo;
+use flexarm_host::sim::{SimConfig, simulate};
+use flexarm_host::study::{Options, paper_cases, run};
+use flexarm_host::truth_plant::TruthSpec;
 
 #[test]
 fn the_papers_study_trips_no_motion_check() {

@@ -36,7 +36,7 @@ use std::fmt::{self, Write as _};
 
 use flexarm_beam::design::{DesignModel, Weights};
 use flexarm_beam::fragment::{ModesChoice, PiezoChoice, piezo_fragment};
-use flexarm_beam::optimize::evaluate;
+use flexarm_beam::point::evaluate;
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::model::Model;
@@ -289,7 +289,7 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
          //!\n\
          //! Generated: do not edit. Source: `{frag}`. Regenerate with\n\
          //! `cargo sim firmware-params {frag} --out {out}`\n\
-         //! (host-sim/src/firmware_params.rs). `cargo test -p flexarm-sim --test firmware_params`\n\
+         //! (host/src/firmware_params.rs). `cargo test -p flexarm-host --test firmware_params`\n\
          //! checks that `firmware/src/generated.rs` is what `firmware/piezo.toml` gives.\n\
          //!\n\
          //! Observer gains: steady-state Kalman gains (`flexarm_core::observer::design`,\n\

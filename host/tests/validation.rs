@@ -2,8 +2,8 @@
 //! it is either refused with a line naming its key, or it runs without the controller refusing
 //! its configuration.
 
-use flexarm_sim::scenario::parse;
-use flexarm_sim::sim::{SimError, simulate};
+use flexarm_host::scenario::parse;
+use flexarm_host::sim::{SimError, simulate};
 use proptest::prelude::*;
 
 const BASE: &str = "duration = 0.5\ntail_window = 0.2\n[trajectory]\nkind = \"trapezoid\"\nmove_time = 0.4\nramp_time = 0.1\n";

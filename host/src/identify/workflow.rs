@@ -324,6 +324,7 @@ pub fn all(
             ("identified model", arm, patch),
             ("nominal model", *nominal.0, *nominal.1),
         ],
+        None,
     )?;
     Ok(format!("{f_text}\n{m_text}\n{i_text}\n{v_text}\n{d_text}"))
 }
@@ -354,11 +355,12 @@ pub type Model<'a> = (&'a str, ArmParams<f64>, PiezoPatch<f64>);
 /// The decay step: the experiment on the simulator (or `record`), its fit and each model's
 /// prediction (the true parameters first when known): `decay.md`, `decay.csv`, `decay.svg`
 /// (and the record when simulated). A record is predicted on a board of its rate
-/// ([`SimConfig::board`]).
+/// ([`SimConfig::board`]). `band` [Hz]: [`DecaySettings::for_band`].
 pub fn decay_step(
     b: &Bench,
     record: Option<&Path>,
     models: &[Model],
+    band: Option<(f64, f64)>,
 ) -> Result<(DecayFit, String), String> {
     let plan = DecayPlan::default();
     let trace = record_or_run(b, record, "decay", || decay::decay_experiment(b.cfg, &plan))?;
@@ -378,7 +380,7 @@ pub fn decay_step(
         b.dir,
         &trace,
         ranges(b, record),
-        &plan,
+        (&plan, band),
         &board,
         &all,
         b.plots,
@@ -391,22 +393,20 @@ pub fn decay_step(
 /// on the controller built from the model, the model its plant: the record's patch command
 /// replayed, or `plan`'s taps at the record's pose when a motor or a hammer tapped it) and
 /// writes `decay.md`, `decay.csv`
-/// and, with `plots`, `decay.svg` into `dir`. Returns the fit and the report.
+/// and, with `plots`, `decay.svg` into `dir`; fitted in `band` ([`DecaySettings::for_band`]),
+/// `plan` the taps the models are tapped with when the record's are not the patch's.
+/// Returns the fit and the report.
 pub fn save_decay(
     dir: &Path,
     trace: &[Sample],
     (v_f_range, v_a_window): (f64, (f64, f64)),
-    plan: &DecayPlan,
+    (plan, band): (&DecayPlan, Option<(f64, f64)>),
     board: &SimConfig,
     models: &[Model],
     plots: bool,
 ) -> Result<(DecayFit, String), String> {
     let rec = ModesRecord::from_trace(trace, v_f_range, v_a_window).map_err(|e| e.to_string())?;
-    let d = DecaySettings::default();
-    let set = DecaySettings {
-        band: (d.band.0, d.band.1.min(0.4 / rec.dt)),
-        ..d
-    };
+    let set = DecaySettings::for_band(band, rec.dt)?;
     let measured = decay::fit_decay(&rec, &set).map_err(|e| e.to_string())?;
     // The patch's taps are replayed on each model; a motor's pulses or a hammer's strikes
     // cannot be (the model's controller holds the joints, and the truth plant alone takes a

@@ -3,11 +3,11 @@
 //! written, and a damaged one is refused naming the file, the line and the column.
 
 use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
-use flexarm_sim::output::{read_csv, write_csv};
-use flexarm_sim::sim::{SimConfig, simulate, summarize};
-use flexarm_sim::study::{Case, Outcome};
+use flexarm_host::output::{read_csv, write_csv};
+use flexarm_host::sim::{SimConfig, simulate, summarize};
+use flexarm_host::study::{Case, Outcome};
 
-fn paper_run() -> (flexarm_sim::sim::Summary, Vec<flexarm_sim::sim::Sample>) {
+fn paper_run() -> (flexarm_host::sim::Summary, Vec<flexarm_host::sim::Sample>) {
     let cfg = SimConfig::default();
     simulate(&cfg, &JointTrajectory::Trapezoid(Trapezoid::paper()), true).unwrap()
 }
@@ -77,7 +77,7 @@ fn a_trace_csv_reads_back_and_a_damaged_one_is_named() {
 /// its time, has no jump where segments meet, and the arm follows.
 #[test]
 fn a_huge_trace_is_refused_with_its_size_before_it_is_read() {
-    use flexarm_sim::output::MAX_TRACE_BYTES;
+    use flexarm_host::output::MAX_TRACE_BYTES;
     let dir = std::env::temp_dir().join(format!("flexarm-trace-huge-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("huge.csv");
@@ -100,7 +100,7 @@ fn a_path_runs_segment_by_segment_through_its_waypoints() {
     use flexarm_core::drive::{Drive, MoveLimits, Waypoint};
     use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
     use flexarm_core::time::Ticks;
-    use flexarm_sim::sim::simulate_segments;
+    use flexarm_host::sim::simulate_segments;
     let mut ctrl = Controller::<f32>::paper(
         MotorLaw::Tracking,
         JointTrajectory::Hold(Vector2::zeros()),

@@ -1,7 +1,7 @@
 //! The motion checks against the truth plant (six modes of the 2.5 mm beam, drives with a
 //! current-loop lag and Coulomb and viscous friction, the piezo amplifier, the film's charge
 //! amplifier): the firmware (`SimConfig::board_config`: `f32`, the observer, the drive) on the
-//! host's rig (`flexarm_sim::rig`) at the board's rates, 1 kHz and 10 kHz, with a failure injected between the plant
+//! host's rig (`flexarm_host::rig`) at the board's rates, 1 kHz and 10 kHz, with a failure injected between the plant
 //! and the controller. One scenario each: a reversed encoder on joint 1, a frozen encoder on
 //! joint 2 mid-move, a stall against a rigid obstacle, a reference that runs into the end of
 //! the range at speed. Each must end in its fault within the stated time, with the joint's
@@ -17,11 +17,11 @@ use flexarm_core::drive::{Mode, MoveRequest};
 use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
 use flexarm_core::{Fault, Vector2};
+use flexarm_host::plant::Plant;
+use flexarm_host::rig::Rig;
+use flexarm_host::sim::SimConfig;
+use flexarm_host::truth_plant::TruthSpec;
 use flexarm_machine::Board;
-use flexarm_sim::plant::Plant;
-use flexarm_sim::rig::Rig;
-use flexarm_sim::sim::SimConfig;
-use flexarm_sim::truth_plant::TruthSpec;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Failure {

@@ -148,6 +148,41 @@ impl Default for DecaySettings {
     }
 }
 
+impl DecaySettings {
+    /// The default settings for the band `(low, high)` [Hz] of a record sampled every `dt`
+    /// [s]: each decay at least three periods of `low` long (a first mode of 0.5 Hz needs 6 s
+    /// between taps), `high` at most 0.4 of the sampling rate. `None` is the default band, its
+    /// top lowered to 0.4 of the rate. An error names `--band` and the limit it broke.
+    pub fn for_band(band: Option<(f64, f64)>, dt: f64) -> Result<Self, String> {
+        let d = Self::default();
+        let top = 0.4 / dt;
+        let Some((low, high)) = band else {
+            return Ok(Self {
+                band: (d.band.0, d.band.1.min(top)),
+                ..d
+            });
+        };
+        if !(low.is_finite() && high.is_finite() && low > 0.0 && high > low) {
+            return Err(format!(
+                "--band {low},{high}: give LOW,HIGH in Hz with 0 < LOW < HIGH"
+            ));
+        }
+        if high > top {
+            return Err(format!(
+                "--band {low},{high}: the record's {:.0} samples a second reach {top:.1} Hz at most",
+                1.0 / dt
+            ));
+        }
+        Ok(Self {
+            band: (low, high),
+            // Three periods and a tenth more: the decimation's whole samples must not cut
+            // the decay under the `record length` gate's three periods.
+            window: d.window.max(3.3 / low),
+            ..d
+        })
+    }
+}
+
 /// One mode of the held arm's decay.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DecayMode {
@@ -199,9 +234,21 @@ impl DecayFit {
 
 /// A mode whose amplitude is under this share of the largest is the pencil's, not the arm's.
 const ARTEFACT_SHARE: f64 = 0.05;
-/// Samples per second above which the record is low-passed and decimated (the band's top is
-/// at most 40 Hz by default: a third of this rate keeps it clear of the decimated Nyquist).
+/// Samples per second above which the record is low-passed and decimated, at least: the
+/// default band's top (40 Hz) is then under 0.27 of the decimated rate, below the low-pass's
+/// cutoff (0.4 of it). A higher band keeps 3.75 times its top ([`decimation`]).
 const DECIMATE_ABOVE: f64 = 150.0;
+
+/// The decimation factor for a record sampled every `dt` [s] and a band up to `high` [Hz]:
+/// down to about `max(150, 3.75 high)` samples a second, never below `3 high`.
+fn decimation(dt: f64, high: f64) -> usize {
+    let rate = 1.0 / dt;
+    let mut factor = (rate / DECIMATE_ABOVE.max(3.75 * high)).ceil().max(1.0) as usize;
+    while factor > 1 && rate / (factor as f64) < 3.0 * high {
+        factor -= 1;
+    }
+    factor
+}
 
 /// Fits the film's decays (`v_f`) after the taps in `rec`: the patch's, a motor's or a
 /// hammer's (module docs).
@@ -210,7 +257,7 @@ pub fn fit_decay(rec: &ModesRecord, set: &DecaySettings) -> Result<DecayFit, Ide
     let bad = |m: String| Err(IdentifyError::Data(m));
     let (held, taps) = find_taps(rec)?;
     // The low-pass and decimation, when the record is fast.
-    let factor = ((1.0 / rec.dt) / DECIMATE_ABOVE).ceil().max(1.0) as usize;
+    let factor = decimation(rec.dt, set.band.1);
     let (v_f, delay) = if factor > 1 {
         lowpass(&rec.v_f, rec.dt, factor)
     } else {

@@ -1,12 +1,12 @@
 //! The full placement sweep: `x_a`, `l_a` in 0.01 m steps over the feasible triangle of the
 //! 0.7 m link (2485 patches), 31 gains, on rayon's pool.
 //!
-//! `CARGO_TARGET_DIR=/work/target-beam cargo bench -p flexarm-beam --bench sweep`
+//! `CARGO_TARGET_DIR=/work/target-beam cargo bench -p flexarm-placement --bench sweep`
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use flexarm_beam::config::default_gains;
 use flexarm_beam::design::DesignModel;
-use flexarm_beam::optimize::sweep;
+use flexarm_placement::optimize::sweep;
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {

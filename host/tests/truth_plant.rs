@@ -1,17 +1,17 @@
-//! The truth plant behind the simulator's loop (`flexarm_sim::truth_plant`): today's plant
+//! The truth plant behind the simulator's loop (`flexarm_host::truth_plant`): today's plant
 //! when it has the controller's two modes and ideal actuators, the beam's frequencies, energy
 //! balanced with friction and damping, convergence in the number of modes, RK4 adequate at the
 //! default step, and a closed loop within bounds derived from the friction.
-//! `cargo test -p flexarm-sim --test truth_plant -- --nocapture` prints the figures.
+//! `cargo test -p flexarm-host --test truth_plant -- --nocapture` prints the figures.
 
 use flexarm_core::Vector2;
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::params::ArmParams;
 use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
-use flexarm_sim::plant::Plant;
-use flexarm_sim::sim::{Sensors, SimConfig, StateSource, simulate};
-use flexarm_sim::truth::Coords;
-use flexarm_sim::truth_plant::{MotorSpec, TruthPlant, TruthSpec};
+use flexarm_host::plant::Plant;
+use flexarm_host::sim::{Sensors, SimConfig, StateSource, simulate};
+use flexarm_host::truth::Coords;
+use flexarm_host::truth_plant::{MotorSpec, TruthPlant, TruthSpec};
 
 fn paper() -> JointTrajectory<f32> {
     JointTrajectory::Trapezoid(Trapezoid::paper())
@@ -290,7 +290,7 @@ fn the_consistent_arm_keeps_the_deflections_small() {
     // the paper's trapezoid; the default thickness keeps the tip within 2 % of the link.
     let cfg = SimConfig::default();
     let mut tips = Vec::new();
-    for t in [0.8e-3, 1.5e-3, flexarm_sim::truth_plant::DEFAULT_THICKNESS] {
+    for t in [0.8e-3, 1.5e-3, flexarm_host::truth_plant::DEFAULT_THICKNESS] {
         let spec = TruthSpec {
             thickness: t,
             ..TruthSpec::default().ideal_actuators()
@@ -319,8 +319,8 @@ fn a_scenario_can_give_the_controller_another_model_on_purpose() {
             "[trajectory]\nkind = \"trapezoid\"\n[controller]\npiezo = true\n[plant]\nkind = \"truth\"\n{controller}\n"
         )
     };
-    let truncation = flexarm_sim::scenario::parse(&text("")).unwrap().config;
-    let given = flexarm_sim::scenario::parse(&text("controller = \"arm\""))
+    let truncation = flexarm_host::scenario::parse(&text("")).unwrap().config;
+    let given = flexarm_host::scenario::parse(&text("controller = \"arm\""))
         .unwrap()
         .config;
     // The same truth plant under both; the controller's model is the beam's truncation, or the
@@ -340,7 +340,7 @@ fn a_scenario_can_give_the_controller_another_model_on_purpose() {
 #[test]
 fn the_film_jumps_by_the_bonds_share_of_the_feedthrough() {
     let f = flexarm_core::control::piezo::PiezoMaterial::<f64> {
-        t_b: flexarm_sim::truth_plant::DEFAULT_THICKNESS,
+        t_b: flexarm_host::truth_plant::DEFAULT_THICKNESS,
         ..Default::default()
     }
     .film_feedthrough();

@@ -6,7 +6,8 @@
 //! gain follows from one 16 × 16 solve each. `J0` does not depend on `α` or `β_c`, so the grid
 //! keeps it and any weights can be applied afterwards without solving again.
 
-use crate::design::{DesignModel, Energy, PatchModes, Weights};
+use flexarm_beam::design::{DesignModel, Energy, PatchModes, Weights};
+use flexarm_beam::point::{Optimum, evaluate_modes};
 use rayon::prelude::*;
 
 /// One patch of the grid.
@@ -152,42 +153,6 @@ impl Sweep {
     }
 }
 
-/// A design point with everything known about it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Optimum {
-    /// Patch start [m].
-    pub x_a: f64,
-    /// Patch length [m].
-    pub l_a: f64,
-    /// Gain [s].
-    pub k_c: f64,
-    /// Objective `J`.
-    pub j: f64,
-    /// Dissipated energy `J0` and initial energy `W0`.
-    pub energy: Energy,
-    /// Modes and coupling at the patch.
-    pub modes: PatchModes,
-}
-
-/// `J` and everything else at one design point; `None` if infeasible or not solvable.
-pub fn evaluate(model: &DesignModel, w: &Weights, x_a: f64, l_a: f64, k_c: f64) -> Option<Optimum> {
-    let pm = model.patch_modes(x_a, l_a).ok()?;
-    evaluate_modes(model, w, pm, k_c)
-}
-
-fn evaluate_modes(model: &DesignModel, w: &Weights, pm: PatchModes, k_c: f64) -> Option<Optimum> {
-    let e = model.energy(&pm, k_c)?;
-    let j = w.objective(pm.l_a, k_c, &e);
-    j.is_finite().then_some(Optimum {
-        x_a: pm.x_a,
-        l_a: pm.l_a,
-        k_c,
-        j,
-        energy: e,
-        modes: pm,
-    })
-}
-
 /// Bounds of the refinement.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bounds {
@@ -271,6 +236,7 @@ pub fn refine(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use flexarm_beam::point::evaluate;
 
     #[test]
     fn grid_covers_the_feasible_triangle() {
@@ -354,7 +320,7 @@ mod tests {
         };
         assert!(d.k_c * default.volts_per_gain(&d.modes) <= 200.0);
         let m = DesignModel {
-            amplifier: crate::design::Amplifier {
+            amplifier: flexarm_beam::design::Amplifier {
                 v_max: 100.0,
                 ..default.amplifier.clone()
             },
@@ -367,7 +333,7 @@ mod tests {
             k_max: 1000.0,
         };
         let free = DesignModel {
-            amplifier: crate::design::Amplifier {
+            amplifier: flexarm_beam::design::Amplifier {
                 enforce: false,
                 ..m.amplifier.clone()
             },
