@@ -379,16 +379,18 @@ impl<T: Real> PiezoLaw<T> {
     #[inline(always)]
     pub fn step_finite(&mut self, v_f: T) -> T {
         let v = self.filter.advance(v_f);
-        // The window's top, then its bottom: one comparison for the top, and the bottom's one
-        // comparison sorts out the rest (below, inside, or unordered: NaN).
+        // The window's top, then its bottom, each one ordered comparison: a saturated output
+        // runs no other test. What is left is inside the window or unordered (NaN), sorted out
+        // by a third comparison (docs/performance.md: the bench's random film samples saturate
+        // nearly always).
         if v > self.v_max {
             return self.v_max;
         }
-        if v >= self.v_min {
-            return v;
-        }
         if v < self.v_min {
             return self.v_min;
+        }
+        if v >= self.v_min {
+            return v;
         }
         // NaN: the first sample after a reset. The filter restarts from it with output 0.
         crate::hint::cold();

@@ -81,8 +81,19 @@ pub fn eq7_joints<T: Real>(
     kp: &Vector4<T>,
     r: &Reference<T>,
 ) -> Vector2<T> {
-    terms.b_times_joints(&r.qdd_r) + terms.c_times_joints(qd, &r.qd_r)
-        - Vector2::new(kp.x * r.s.x, kp.y * r.s.y)
+    let b = terms.b_times_joints(&r.qdd_r);
+    joint_rows(b, terms.c_times_joints(qd, &r.qd_r), kp, r)
+}
+
+/// `τ = (B q̈_r)_θ + (C q̇_r)_θ − (K_p s)_θ` from the first two.
+#[inline(always)]
+fn joint_rows<T: Real>(
+    b: Vector2<T>,
+    c: Vector2<T>,
+    kp: &Vector4<T>,
+    r: &Reference<T>,
+) -> Vector2<T> {
+    b + c - Vector2::new(kp.x * r.s.x, kp.y * r.s.y)
 }
 
 /// The motor torques of Eq. 7 from the state: what a plain implementation of the law computes,
@@ -100,7 +111,12 @@ pub fn eq7_torques<T: Real>(
     // loaded into registers (and saved across the polynomial) before it.
     let terms = model.terms_inline(q);
     let r = Reference::new(&gains.lambda, q, qd, target);
-    eq7_joints(&terms, qd, &gains.kp, &r)
+    // `C q̇_r` before `B q̈_r` (the same operations, so the same result): LLVM then holds five
+    // values in the callee-saved FP registers instead of seven (`VPUSH {d8-d12}`, 4 cycles
+    // less on entry and on return). The motor law keeps `eq7_joints`' order, which spills less
+    // there.
+    let c = terms.c_times_joints(qd, &r.qd_r);
+    joint_rows(terms.b_times_joints(&r.qdd_r), c, &gains.kp, &r)
 }
 
 /// Eq. 7 from the state: `u = B q̈_r + C q̇_r + K_e q_d + D q̇_r − K_p s`.
