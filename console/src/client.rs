@@ -18,6 +18,13 @@ pub enum ConsoleError {
         /// Bytes received during the handshake.
         bytes: usize,
     },
+    /// Frames of our firmware came back, none of them the handshake's answer: replies to an
+    /// earlier session's requests or its telemetry still draining, or a firmware far behind
+    /// real time (an emulator on a loaded host), not a dead board (issue 36).
+    Backlogged {
+        /// Frames received during the handshake.
+        frames: usize,
+    },
     /// Nothing came back.
     Silent,
     /// The firmware refused the handshake: another protocol version.
@@ -49,9 +56,13 @@ impl std::fmt::Display for ConsoleError {
                 f,
                 "{bytes} bytes came back but not one frame of the flexarm firmware: is this the right port and baud rate?"
             ),
+            Self::Backlogged { frames } => write!(
+                f,
+                "{frames} frames of the flexarm firmware came back but no answer to the handshake in its time: the line is still busy with earlier traffic (another session's requests or telemetry) or the firmware runs far behind real time (an emulator on a loaded host); wait a few seconds and try again"
+            ),
             Self::Silent => write!(
                 f,
-                "no answer from the firmware within the handshake's time: is the board powered and booted, and the port the right one?"
+                "no answer from the firmware within the handshake's time: is the board powered and booted, the port the right one, and no other program on it?"
             ),
             Self::Version => write!(
                 f,
@@ -171,7 +182,7 @@ impl Client {
             timing: Timing::default(),
             retries: 0,
         };
-        let mut received = 0usize;
+        let (mut received, mut frames) = (0usize, 0usize);
         let start = Instant::now();
         while start.elapsed() < timeout {
             c.next_id = c.next_id.wrapping_add(1);
@@ -196,12 +207,15 @@ impl Client {
                         reply: Reply::Refused(Refusal::Version),
                         ..
                     }) => return Err(ConsoleError::Version),
-                    Read::Frame(_) | Read::Byte => received += 1,
+                    Read::Frame(_) => frames += 1,
+                    Read::Byte => received += 1,
                     Read::Quiet => {}
                 }
             }
         }
-        Err(if received > 0 {
+        Err(if frames > 0 {
+            ConsoleError::Backlogged { frames }
+        } else if received > 0 {
             ConsoleError::NotOurFirmware { bytes: received }
         } else {
             ConsoleError::Silent
