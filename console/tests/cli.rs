@@ -221,6 +221,12 @@ fn a_firmware_of_another_protocol_version_is_named() {
     );
 }
 
+/// `flexarm status` on the local `port` with a handshake of one second fails with `expect`.
+fn status_fails_within_a_second(port: u16, expect: &str) {
+    let at = format!("127.0.0.1:{port}");
+    fails_with(&["--tcp", &at, "--wait", "1", "status"], expect);
+}
+
 /// A firmware still draining an earlier session's traffic (issue 36: after a flood the console
 /// asked whether the board was powered): it answers, but never the handshake. The error says
 /// the line is busy, not that the board is dead or foreign.
@@ -230,42 +236,15 @@ fn a_backlogged_line_is_named_as_such() {
         Some(Reply::Status(status_in(Mode::Armed, 0)))
     }
     let port = firmware(draining);
-    fails_with(
-        &[
-            "--tcp",
-            &format!("127.0.0.1:{port}"),
-            "--wait",
-            "1",
-            "status",
-        ],
-        "the line is still busy with earlier traffic",
-    );
+    status_fails_within_a_second(port, "the line is still busy with earlier traffic");
 }
 
 #[test]
 fn a_peer_that_is_not_our_firmware_is_named_not_hung_on() {
     let port = peer(b"\x13\x37garbage\x00\xff\xfe\x00noise");
-    fails_with(
-        &[
-            "--tcp",
-            &format!("127.0.0.1:{port}"),
-            "--wait",
-            "1",
-            "status",
-        ],
-        "not one frame of the flexarm firmware",
-    );
+    status_fails_within_a_second(port, "not one frame of the flexarm firmware");
     let port = peer(b"");
-    fails_with(
-        &[
-            "--tcp",
-            &format!("127.0.0.1:{port}"),
-            "--wait",
-            "1",
-            "status",
-        ],
-        "no answer from the firmware",
-    );
+    status_fails_within_a_second(port, "no answer from the firmware");
 }
 
 #[test]
