@@ -44,6 +44,7 @@ use crate::kinematics::{Elbow, Planar2};
 use crate::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use crate::observer::Measurement;
 use crate::real::Real;
+use crate::retained::HeatStore;
 use crate::supervisor::Command;
 use crate::time::{MoveClock, Ticks};
 use crate::trajectory::{Circle, Cubic, JointTrajectory, Profile, Trapezoid};
@@ -334,8 +335,19 @@ impl<T: Real> Drive<T> {
                     report.command = Command::safe();
                 }
                 Verdict::Stop(f) => {
-                    if self.pending.is_none() && self.stop(ctrl, now).is_ok() {
-                        self.pending = Some(f);
+                    if self.pending.is_none() {
+                        // Holding, the reference is at rest already: the stop holds it while the
+                        // joints brake, for as long as the move limits' deceleration needs to
+                        // bring their speeds to rest (at once when they are at rest).
+                        let started = if self.mode == Mode::Armed {
+                            self.settle(sample.speed, ctrl.motor_period, now);
+                            Ok(())
+                        } else {
+                            self.stop(ctrl, now)
+                        };
+                        if started.is_ok() {
+                            self.pending = Some(f);
+                        }
                     }
                 }
             }
@@ -343,14 +355,30 @@ impl<T: Real> Drive<T> {
         self.monitor
             .update_heat(&self.motion, report.command.tau, ctrl.motor_period);
         self.tick(now);
-        // A category-1 stop has ended: now the safe state.
+        // A category-1 stop has ended: now the safe state, in this period's command too.
         if let (Some(f), Mode::Armed) = (self.pending, self.mode) {
             ctrl.trip(f);
             self.pending = None;
+            report.command = Command::safe();
         }
         self.watch_link(ctrl, now);
         self.next = now.next();
         report
+    }
+
+    /// A category-1 stop while holding: the hold goes on, as a stop, for the time the move
+    /// limits' deceleration needs to bring the joints' speeds `speed` [rad/s] (the observer's)
+    /// to rest, `max_i |θ̇̂_i| / a_i`; under one motor period `dt` [s] the joints are at rest and
+    /// the stop ends in this period.
+    fn settle(&mut self, speed: Vector2<T>, dt: T, now: Ticks) {
+        let a = self.limits.accel_max;
+        let (t1, t2) = (speed.x.abs() / a.x, speed.y.abs() / a.y);
+        let t_r = if t1 > t2 { t1 } else { t2 };
+        // Not `t_r < dt`: a speed that is not finite settles at once too.
+        let end = if t_r >= dt { t_r } else { T::zero() };
+        self.restart(now, T::zero(), end);
+        self.segments = 0;
+        self.mode = Mode::Stopping;
     }
 
     /// The motors' heat lowers the torque limit (`crate::motion`): the controller saturates at
@@ -941,5 +969,22 @@ impl<T: Real> Drive<T> {
         ctrl.reset(y.theta);
         self.disarm(ctrl);
         Ok(fault)
+    }
+}
+
+/// The store of a board, which runs the drive in `f32`.
+impl Drive<f32> {
+    /// After a reset: the motors' I²t states from `store` (`crate::retained`) when it is
+    /// valid, otherwise the motors assumed hot ([`crate::motion::Thermal::assumed_hot`]).
+    /// Returns whether the stored states were used. The first step derates the torque limit
+    /// from them as from any heat.
+    pub fn restore_heat(&mut self, store: &HeatStore) -> bool {
+        let th = &self.motion.thermal;
+        // The hottest state the torque limit can drive a motor to: (τ_max/τ_c)².
+        let ratio = self.rated.component_div(&th.continuous);
+        let stored = store.load(ratio.component_mul(&ratio).max());
+        let hot = th.assumed_hot();
+        self.monitor.heat = stored.unwrap_or(Vector2::new(hot, hot));
+        stored.is_some()
     }
 }
