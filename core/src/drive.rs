@@ -5,7 +5,7 @@
 //! | `Disarmed` | off (safe command; checks and observer run) | — | `arm` |
 //! | `Armed` | on | holds the pose where it was armed or where the last move or stop ended | `start` (a move), `disarm`, a fault |
 //! | `Moving` | on | the move | its end (→ `Armed`), `stop`, `disarm`, a fault |
-//! | `Stopping` | on | a controlled stop at the move limits' deceleration ([`Drive::stop`]) | its end (→ `Armed`), `disarm`, a fault |
+//! | `Stopping` | on | a controlled stop at the move limits' deceleration ([`Drive::stop`]); after a category-1 fault while holding, the hold, for as long as that deceleration needs to bring the joints' estimated speeds to rest | its end (→ `Armed`), `disarm`, a fault |
 //! | `Fault` | off (latched) | — | `clear`, when the cause is gone (→ `Disarmed`) |
 //!
 //! The link watchdog: once a host has spoken ([`Drive::heard`]), a move that goes on for
@@ -25,9 +25,10 @@
 //! Motion safety (`crate::motion`): every armed motor period, after the motor step, the drive
 //! runs the motion checks on the measured angles, the reference, the observer's speeds and the
 //! torques. A category-0 fault trips the latch in the same period (the period's command becomes
-//! the safe one); a category-1 fault starts a controlled stop ([`Drive::stop`]) and is latched
-//! when the stop ends ([`Drive::pending`] meanwhile). The motors' I²t state lowers the torque
-//! limit the controller saturates at while a motor is hot.
+//! the safe one); a category-1 fault starts a controlled stop ([`Drive::stop`]; while holding,
+//! the hold itself) and is latched when the stop ends ([`Drive::pending`] meanwhile), with that
+//! period's command the safe one. The motors' I²t state lowers the torque limit the controller
+//! saturates at while a motor is hot; it survives a reset ([`Drive::restore_heat`]).
 //!
 //! Validation ([`Drive::plan`]) reads only copies (the drive, the motor law, the held pose), so
 //! a firmware runs it outside the control loops' critical sections and then starts the plan

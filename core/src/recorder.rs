@@ -11,7 +11,7 @@
 //! keeps it in RAM that its start-up does not zero.
 
 use crate::fault::Fault;
-use crate::retained::checksum;
+use crate::retained::{checksum, checksum_step};
 
 /// The seal of a frozen recorder ("FRZN").
 pub const SEAL_MAGIC: u32 = 0x4652_5a4e;
@@ -96,6 +96,7 @@ impl<const N: usize> Recorder<N> {
     /// survives a reset ([`Self::restore`]). What an emergency path calls before the reset it
     /// ends in; [`Self::record`] calls it when a fault latches. Sealing reads every word of the
     /// ring once (about 5500 for 500 samples).
+    #[inline(never)]
     pub fn freeze(&mut self, fault: Fault) {
         if self.frozen == 0 {
             self.frozen = fault as u8;
@@ -108,6 +109,7 @@ impl<const N: usize> Recorder<N> {
     /// its checksum matches (frozen, with the pre-reset fault and samples: returns `true`);
     /// otherwise empties it and returns `false` (RAM after a power cycle, a recorder that was
     /// still recording, a write torn by the reset).
+    #[inline(never)]
     pub fn restore(&mut self) -> bool {
         let valid = self.seal == SEAL_MAGIC
             && self.next < N
@@ -126,10 +128,13 @@ impl<const N: usize> Recorder<N> {
     }
 
     /// The checksum of the recorder's words: its indices, its fault and every sample's fields.
+    /// (One copy in a firmware's flash: the motor loop, the supervisor, the emergency paths
+    /// and the start-up call it.)
+    #[inline(never)]
     fn sum(&self) -> u32 {
-        let head = [self.next as u32, self.len as u32, u32::from(self.frozen)];
-        let samples = self.ring.iter().flat_map(|s| {
-            [
+        let mut h = checksum([self.next as u32, self.len as u32, u32::from(self.frozen)]);
+        for s in &self.ring {
+            let words = [
                 s.tick as u32,
                 (s.tick >> 32) as u32,
                 s.theta[0].to_bits(),
@@ -141,9 +146,12 @@ impl<const N: usize> Recorder<N> {
                 s.tau[0].to_bits(),
                 s.tau[1].to_bits(),
                 s.v_f.to_bits(),
-            ]
-        });
-        checksum(head.into_iter().chain(samples))
+            ];
+            for w in words {
+                h = checksum_step(h, w);
+            }
+        }
+        h
     }
 
     /// The fault that froze it, if any.

@@ -26,9 +26,13 @@ const FNV_PRIME: u32 = 0x0100_0193;
 
 /// The checksum of a sequence of words: FNV-1a, one word at a time.
 pub fn checksum(words: impl IntoIterator<Item = u32>) -> u32 {
-    words
-        .into_iter()
-        .fold(FNV_OFFSET, |h, w| (h ^ w).wrapping_mul(FNV_PRIME))
+    words.into_iter().fold(FNV_OFFSET, checksum_step)
+}
+
+/// One word `w` more into the checksum `h` so far ([`checksum`] of the words before it).
+#[inline(always)]
+pub fn checksum_step(h: u32, w: u32) -> u32 {
+    (h ^ w).wrapping_mul(FNV_PRIME)
 }
 
 /// The heat store's magic number ("HEAT").
