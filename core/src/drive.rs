@@ -247,6 +247,9 @@ pub struct Drive<T> {
     rated: Vector2<T>,
     /// The last step derated them.
     derated: bool,
+    /// The derated limits the last step wrote [N·m] (a different limit found in the controller
+    /// at the next step was set in between).
+    written: Vector2<T>,
 }
 
 impl<T: Real> Drive<T> {
@@ -276,6 +279,7 @@ impl<T: Real> Drive<T> {
             pending: None,
             rated: ctrl.motor.limits.tau_max,
             derated: false,
+            written: ctrl.motor.limits.tau_max,
         }
     }
 
@@ -384,13 +388,22 @@ impl<T: Real> Drive<T> {
 
     /// The motors' heat lowers the torque limit (`crate::motion`): the controller saturates at
     /// the derated limit while a motor is hot, and at the rated one again once it has cooled.
-    /// The rated limit follows the controller's while no motor is hot (a `Set` of the torque
-    /// limit at rest); a `Set` while a motor is hot is overridden until it cools.
+    /// The rated limit follows the controller's (a `Set` of the torque limit at rest), also
+    /// while a motor is hot: a limit set then is the new rated one, derated while hot and kept
+    /// once cool. (Before issue 33 a `Set` while hot was overridden by the derating of the old
+    /// rated limit, which could be above it, and replaced by the old one once cool: a bring-up's
+    /// 3 N·m limit set in the first seconds after a power-on, when the motors are assumed hot,
+    /// would have been lost.)
     fn derate(&mut self, ctrl: &mut Controller<T>) {
+        if self.derated && ctrl.motor.limits.tau_max != self.written {
+            self.rated = ctrl.motor.limits.tau_max;
+        }
         let hot = self.monitor.heat.x > self.motion.thermal.derate
             || self.monitor.heat.y > self.motion.thermal.derate;
         if hot {
-            ctrl.motor.limits.tau_max = self.monitor.torque_limit(&self.motion, self.rated);
+            let limit = self.monitor.torque_limit(&self.motion, self.rated);
+            ctrl.motor.limits.tau_max = limit;
+            self.written = limit;
         } else if ctrl.motor.limits.tau_max != self.rated {
             // Cooled down after derating, or a new rated limit set at rest.
             if self.derated {

@@ -188,3 +188,29 @@ fn a_category_1_fault_while_holding_and_moving_stops_under_control() {
     println!("stopped in {periods} periods, {expected} expected from {speed} rad/s");
     assert!(periods >= 2 && periods.abs_diff(expected) <= 2);
 }
+
+/// A torque limit set while the motors are (assumed) hot, as a bring-up sets 3 N·m in the first
+/// seconds after a power-on: it holds while they cool and stays once they are cool (the old
+/// derating went on from the previous rated 10 N·m, 8 N·m at a state of 0.7, and restored
+/// 10 N·m once cool).
+#[test]
+fn a_torque_limit_set_while_hot_is_kept() {
+    let mut ctrl = controller();
+    let mut d = Drive::new(&mut ctrl, 1000, Ticks(0), MoveLimits::default());
+    assert!(!d.restore_heat(&HeatStore::invalid()));
+    d.step(&mut ctrl, Ticks(0), Some(&y(0.0, 0.0)));
+    assert_eq!(ctrl.motor.limits.tau_max, Vector2::new(4.0, 4.0));
+    // The link's `Set (TauMax0/1, 3)` at rest.
+    ctrl.motor.limits.tau_max = Vector2::new(3.0, 3.0);
+    for (k, heat) in [(1, 0.85), (2, 0.7), (3, 0.62), (4, 0.3), (5, 0.0)] {
+        d.heat_for_test(Vector2::new(heat, heat));
+        d.step(&mut ctrl, Ticks(k), Some(&y(0.0, 0.0)));
+        let limit = ctrl.motor.limits.tau_max;
+        assert!(limit.x <= 3.0 && limit.y <= 3.0, "at {heat}: {limit:?}");
+    }
+    assert_eq!(
+        ctrl.motor.limits.tau_max,
+        Vector2::new(3.0, 3.0),
+        "kept once cool"
+    );
+}
