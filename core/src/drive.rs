@@ -395,8 +395,13 @@ impl<T: Real> Drive<T> {
     /// 3 N·m limit set in the first seconds after a power-on, when the motors are assumed hot,
     /// would have been lost.)
     fn derate(&mut self, ctrl: &mut Controller<T>) {
-        if self.derated && ctrl.motor.limits.tau_max != self.written {
-            self.rated = ctrl.motor.limits.tau_max;
+        // A joint's limit set since the last step (the other joint's derated value is written
+        // back with it: it stays the derating's).
+        if self.derated {
+            let set = ctrl.motor.limits.tau_max;
+            self.rated =
+                self.rated
+                    .zip_zip_map(&set, &self.written, |r, s, w| if s != w { s } else { r });
         }
         let hot = self.monitor.heat.x > self.motion.thermal.derate
             || self.monitor.heat.y > self.motion.thermal.derate;
@@ -413,6 +418,12 @@ impl<T: Real> Drive<T> {
             }
         }
         self.derated = hot;
+    }
+
+    /// The torque limits the motors are rated for [N·m]: the controller's limit, before the
+    /// motors' heat derates it (what the link's `Get` of the torque limit reads).
+    pub fn rated_torque(&self) -> Vector2<T> {
+        self.rated
     }
 
     /// The motion checks' state: the motors' heat (`crate::motion`).

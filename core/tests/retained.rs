@@ -213,4 +213,14 @@ fn a_torque_limit_set_while_hot_is_kept() {
         Vector2::new(3.0, 3.0),
         "kept once cool"
     );
+    assert_eq!(d.rated_torque(), Vector2::new(3.0, 3.0));
+    // One joint set while hot (the link's `Set` writes the other's derated value back with
+    // it): the other keeps its rated limit.
+    d.heat_for_test(Vector2::new(0.9, 0.9));
+    d.step(&mut ctrl, Ticks(6), Some(&y(0.0, 0.0)));
+    ctrl.motor.limits.tau_max.x = 2.5;
+    d.heat_for_test(Vector2::new(0.0, 0.0));
+    d.step(&mut ctrl, Ticks(7), Some(&y(0.0, 0.0)));
+    d.step(&mut ctrl, Ticks(8), Some(&y(0.0, 0.0)));
+    assert_eq!(ctrl.motor.limits.tau_max, Vector2::new(2.5, 3.0));
 }
