@@ -5,7 +5,7 @@
 //! | `Disarmed` | off (safe command; checks and observer run) | — | `arm` |
 //! | `Armed` | on | holds the pose where it was armed or where the last move or stop ended | `start` (a move), `disarm`, a fault |
 //! | `Moving` | on | the move | its end (→ `Armed`), `stop`, `disarm`, a fault |
-//! | `Stopping` | on | a controlled stop at the move limits' deceleration ([`Drive::stop`]) | its end (→ `Armed`), `disarm`, a fault |
+//! | `Stopping` | on | a controlled stop at the move limits' deceleration ([`Drive::stop`]); after a category-1 fault while holding, the hold, for as long as that deceleration needs to bring the joints' estimated speeds to rest | its end (→ `Armed`), `disarm`, a fault |
 //! | `Fault` | off (latched) | — | `clear`, when the cause is gone (→ `Disarmed`) |
 //!
 //! The link watchdog: once a host has spoken ([`Drive::heard`]), a move that goes on for
@@ -25,9 +25,10 @@
 //! Motion safety (`crate::motion`): every armed motor period, after the motor step, the drive
 //! runs the motion checks on the measured angles, the reference, the observer's speeds and the
 //! torques. A category-0 fault trips the latch in the same period (the period's command becomes
-//! the safe one); a category-1 fault starts a controlled stop ([`Drive::stop`]) and is latched
-//! when the stop ends ([`Drive::pending`] meanwhile). The motors' I²t state lowers the torque
-//! limit the controller saturates at while a motor is hot.
+//! the safe one); a category-1 fault starts a controlled stop ([`Drive::stop`]; while holding,
+//! the hold itself) and is latched when the stop ends ([`Drive::pending`] meanwhile), with that
+//! period's command the safe one. The motors' I²t state lowers the torque limit the controller
+//! saturates at while a motor is hot; it survives a reset ([`Drive::restore_heat`]).
 //!
 //! Validation ([`Drive::plan`]) reads only copies (the drive, the motor law, the held pose), so
 //! a firmware runs it outside the control loops' critical sections and then starts the plan
@@ -44,6 +45,7 @@ use crate::kinematics::{Elbow, Planar2};
 use crate::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use crate::observer::Measurement;
 use crate::real::Real;
+use crate::retained::HeatStore;
 use crate::supervisor::Command;
 use crate::time::{MoveClock, Ticks};
 use crate::trajectory::{Circle, Cubic, JointTrajectory, Profile, Trapezoid};
@@ -245,6 +247,9 @@ pub struct Drive<T> {
     rated: Vector2<T>,
     /// The last step derated them.
     derated: bool,
+    /// The derated limits the last step wrote [N·m] (a different limit found in the controller
+    /// at the next step was set in between).
+    written: Vector2<T>,
 }
 
 impl<T: Real> Drive<T> {
@@ -274,6 +279,7 @@ impl<T: Real> Drive<T> {
             pending: None,
             rated: ctrl.motor.limits.tau_max,
             derated: false,
+            written: ctrl.motor.limits.tau_max,
         }
     }
 
@@ -334,8 +340,19 @@ impl<T: Real> Drive<T> {
                     report.command = Command::safe();
                 }
                 Verdict::Stop(f) => {
-                    if self.pending.is_none() && self.stop(ctrl, now).is_ok() {
-                        self.pending = Some(f);
+                    if self.pending.is_none() {
+                        // Holding, the reference is at rest already: the stop holds it while the
+                        // joints brake, for as long as the move limits' deceleration needs to
+                        // bring their speeds to rest (at once when they are at rest).
+                        let started = if self.mode == Mode::Armed {
+                            self.settle(sample.speed, ctrl.motor_period, now);
+                            Ok(())
+                        } else {
+                            self.stop(ctrl, now)
+                        };
+                        if started.is_ok() {
+                            self.pending = Some(f);
+                        }
                     }
                 }
             }
@@ -343,25 +360,55 @@ impl<T: Real> Drive<T> {
         self.monitor
             .update_heat(&self.motion, report.command.tau, ctrl.motor_period);
         self.tick(now);
-        // A category-1 stop has ended: now the safe state.
+        // A category-1 stop has ended: now the safe state, in this period's command too.
         if let (Some(f), Mode::Armed) = (self.pending, self.mode) {
             ctrl.trip(f);
             self.pending = None;
+            report.command = Command::safe();
         }
         self.watch_link(ctrl, now);
         self.next = now.next();
         report
     }
 
+    /// A category-1 stop while holding: the hold goes on, as a stop, for the time the move
+    /// limits' deceleration needs to bring the joints' speeds `speed` [rad/s] (the observer's)
+    /// to rest, `max_i |θ̇̂_i| / a_i`; under one motor period `dt` [s] the joints are at rest and
+    /// the stop ends in this period.
+    fn settle(&mut self, speed: Vector2<T>, dt: T, now: Ticks) {
+        let a = self.limits.accel_max;
+        let (t1, t2) = (speed.x.abs() / a.x, speed.y.abs() / a.y);
+        let t_r = if t1 > t2 { t1 } else { t2 };
+        // Not `t_r < dt`: a speed that is not finite settles at once too.
+        let end = if t_r >= dt { t_r } else { T::zero() };
+        self.restart(now, T::zero(), end);
+        self.segments = 0;
+        self.mode = Mode::Stopping;
+    }
+
     /// The motors' heat lowers the torque limit (`crate::motion`): the controller saturates at
     /// the derated limit while a motor is hot, and at the rated one again once it has cooled.
-    /// The rated limit follows the controller's while no motor is hot (a `Set` of the torque
-    /// limit at rest); a `Set` while a motor is hot is overridden until it cools.
+    /// The rated limit follows the controller's (a `Set` of the torque limit at rest), also
+    /// while a motor is hot: a limit set then is the new rated one, derated while hot and kept
+    /// once cool. (Before issue 33 a `Set` while hot was overridden by the derating of the old
+    /// rated limit, which could be above it, and replaced by the old one once cool: a bring-up's
+    /// 3 N·m limit set in the first seconds after a power-on, when the motors are assumed hot,
+    /// would have been lost.)
     fn derate(&mut self, ctrl: &mut Controller<T>) {
+        // A joint's limit set since the last step (the other joint's derated value is written
+        // back with it: it stays the derating's).
+        if self.derated {
+            let set = ctrl.motor.limits.tau_max;
+            self.rated =
+                self.rated
+                    .zip_zip_map(&set, &self.written, |r, s, w| if s != w { s } else { r });
+        }
         let hot = self.monitor.heat.x > self.motion.thermal.derate
             || self.monitor.heat.y > self.motion.thermal.derate;
         if hot {
-            ctrl.motor.limits.tau_max = self.monitor.torque_limit(&self.motion, self.rated);
+            let limit = self.monitor.torque_limit(&self.motion, self.rated);
+            ctrl.motor.limits.tau_max = limit;
+            self.written = limit;
         } else if ctrl.motor.limits.tau_max != self.rated {
             // Cooled down after derating, or a new rated limit set at rest.
             if self.derated {
@@ -371,6 +418,12 @@ impl<T: Real> Drive<T> {
             }
         }
         self.derated = hot;
+    }
+
+    /// The torque limits the motors are rated for [N·m]: the controller's limit, before the
+    /// motors' heat derates it (what the link's `Get` of the torque limit reads).
+    pub fn rated_torque(&self) -> Vector2<T> {
+        self.rated
     }
 
     /// The motion checks' state: the motors' heat (`crate::motion`).
@@ -941,5 +994,22 @@ impl<T: Real> Drive<T> {
         ctrl.reset(y.theta);
         self.disarm(ctrl);
         Ok(fault)
+    }
+}
+
+/// The store of a board, which runs the drive in `f32`.
+impl Drive<f32> {
+    /// After a reset: the motors' I²t states from `store` (`crate::retained`) when it is
+    /// valid, otherwise the motors assumed hot ([`crate::motion::Thermal::assumed_hot`]).
+    /// Returns whether the stored states were used. The first step derates the torque limit
+    /// from them as from any heat.
+    pub fn restore_heat(&mut self, store: &HeatStore) -> bool {
+        let th = &self.motion.thermal;
+        // The hottest state the torque limit can drive a motor to: (τ_max/τ_c)².
+        let ratio = self.rated.component_div(&th.continuous);
+        let stored = store.load(ratio.component_mul(&ratio).max());
+        let hot = th.assumed_hot();
+        self.monitor.heat = stored.unwrap_or(Vector2::new(hot, hot));
+        stored.is_some()
     }
 }

@@ -47,6 +47,7 @@ pub mod params;
 pub mod plant;
 pub mod real;
 pub mod recorder;
+pub mod retained;
 pub mod simarm;
 pub mod supervisor;
 pub mod time;

@@ -47,6 +47,18 @@ pub struct Thermal<T> {
     pub trip: T,
 }
 
+impl<T: Real> Thermal<T> {
+    /// The I²t state a motor is assumed to be in when its stored state is lost (a power cycle,
+    /// a torn store: `crate::retained`): `floor`, where the torque limit is the continuous
+    /// rating. It is the hottest state a motor can be left in and still be armed (at `trip`
+    /// the first armed period would stop it), and a hot motor is never treated as cooler than
+    /// it may be: the full torque comes back as it cools to `derate`, after
+    /// `T_th ln(floor/derate)` (8.1 s at the defaults).
+    pub fn assumed_hot(&self) -> T {
+        self.floor
+    }
+}
+
 /// The thresholds of the motion checks (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotionLimits<T> {

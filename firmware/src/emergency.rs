@@ -17,6 +17,8 @@
 
 use core::sync::atomic::{Ordering::SeqCst, compiler_fence};
 
+use flexarm_core::Fault;
+
 /// Masks interrupts and forces the safe outputs: amplifiers disabled, both motor commands at
 /// 50 % duty (zero torque), the piezo command at mid-scale (0 V).
 #[inline(always)]
@@ -67,9 +69,19 @@ pub fn force_safe_outputs() {
     crate::board::sim::OUTPUTS.force_safe();
 }
 
-/// What a failed run ends with: log the outputs, then stop.
+/// What a failed run ends with: the fault recorder frozen and sealed for the reset (its first
+/// fault kept, else [`Fault::Watchdog`], the fault the board boots with after the reset), the
+/// outputs logged, then the stop.
 fn stop(what: &str) -> ! {
-    #[cfg(feature = "qemu")]
+    crate::retained::freeze(Fault::Watchdog);
+    // The reset run (`inject-reset`): QEMU has no watchdog; a system reset instead, whose RAM
+    // the next boot finds the recorder in.
+    #[cfg(feature = "inject-reset")]
+    {
+        defmt::warn!("{=str}: recorder frozen; system reset", what);
+        cortex_m::peripheral::SCB::sys_reset();
+    }
+    #[cfg(all(feature = "qemu", not(feature = "inject-reset")))]
     {
         use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
         let o = crate::board::sim::OUTPUTS.snapshot();
@@ -99,6 +111,7 @@ fn stop(what: &str) -> ! {
         "{=str}: outputs forced safe; halting until the watchdog resets",
         what
     );
+    #[allow(unreachable_code)]
     loop {
         cortex_m::asm::wfi();
     }

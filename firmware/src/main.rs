@@ -18,8 +18,12 @@
 #![no_std]
 #![no_main]
 // The QEMU link-session build has no boot move and no end-of-run verdict: the verdict's code
-// (`verdict`, the stack report) is compiled but unused there.
-#![cfg_attr(feature = "link-session", allow(dead_code))]
+// (`verdict`, the stack report) is compiled but unused there; the reset run (`inject-reset`)
+// leaves the emergency path's output log unused.
+#![cfg_attr(
+    any(feature = "link-session", feature = "inject-reset"),
+    allow(dead_code)
+)]
 
 // The register code: the only `unsafe` of the workspace (its lints deny it everywhere else).
 mod board;
@@ -39,6 +43,8 @@ mod generated {
 }
 #[allow(unsafe_code)]
 mod link;
+#[allow(unsafe_code)]
+mod retained;
 mod stats;
 mod telemetry;
 
@@ -59,6 +65,7 @@ mod app {
     use core::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
     use flexarm_core::drive::{Drive, MoveRequest};
+    use flexarm_core::retained::HeatStore;
     use flexarm_core::time::MoveClock;
     use flexarm_core::trajectory::{JointTrajectory, Trapezoid};
     use flexarm_core::{Fault, Vector2};
@@ -118,6 +125,7 @@ mod app {
         snapshot: Snapshot,
         piezo_ticks: u32,
         motor: MotorLoop,
+        heat_store: &'static mut HeatStore,
         move_clock: MoveClock,
         last_heartbeat: u32,
         supervisor_ticks: u32,
@@ -147,7 +155,6 @@ mod app {
     #[init(local = [
         queue: telemetry::Queue = telemetry::Queue::new(),
         rx_queue: crate::link::RxQueue = crate::link::RxQueue::new(),
-        recorder: FaultRecorder = FaultRecorder::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
@@ -279,6 +286,25 @@ mod app {
         // After the timers start: code before them shifts the QEMU timers' phase, and with it
         // the uptime runs' equality (scripts/qemu-uptime), by its tick-dependent length.
         let mut drive = cfg.drive(&mut ctrl, config::START_TICK);
+        // What survived the reset: the recorder frozen before it, and the motors' heat (or,
+        // after a power cycle or a torn write, the motors assumed hot).
+        let (recorder, heat_store) = crate::retained::take();
+        let restored = recorder.restore();
+        if restored {
+            defmt::warn!(
+                "fault recorder kept across the reset: {=str}, {=usize} samples",
+                recorder.fault().map_or("?", |f| f.as_str()),
+                recorder.len()
+            );
+        }
+        let heat_restored = drive.restore_heat(heat_store);
+        let heat = drive.monitor().heat;
+        if !heat_restored {
+            defmt::warn!(
+                "motor heat: no valid store (power-on or a torn write): assumed hot, {=f32}; full torque once cool",
+                heat.x
+            );
+        }
         if config::BOOT_MOVE && ctrl.fault().is_none() {
             let half_pi = core::f32::consts::FRAC_PI_2;
             let boot = MoveRequest::Trapezoid {
@@ -307,11 +333,39 @@ mod app {
             params_hash
         );
         let snapshot = session::snapshot(&ctrl, &drive);
+        #[cfg_attr(not(feature = "inject-reset"), allow(unused_mut))]
+        let mut control = Control::new(ctrl);
+        #[cfg_attr(not(feature = "inject-reset"), allow(unused_mut))]
+        let mut session = Session::new(
+            cfg.tuning(),
+            Identity {
+                board: cfg.board,
+                build: concat!("flexarm-firmware ", env!("CARGO_PKG_VERSION")),
+                params_hash,
+                motor_hz: MOTOR_HZ,
+                piezo_hz: PIEZO_HZ,
+                test_commands: cfg!(feature = "link-session"),
+            },
+        );
+        // The reset run's second boot: the recorder read over the link's reply, then the
+        // verdict (the first boot runs the move, panics at 1 s and resets).
+        #[cfg(feature = "inject-reset")]
+        if restored {
+            crate::verdict::after_reset(
+                &mut session,
+                &mut control,
+                &mut drive,
+                recorder,
+                heat_restored,
+            );
+        }
+        #[cfg(not(feature = "inject-reset"))]
+        let _ = (restored, heat);
         (
             Shared {
-                control: Control::new(ctrl),
+                control,
                 drive,
-                recorder: cx.local.recorder,
+                recorder,
                 board,
             },
             Local {
@@ -325,19 +379,10 @@ mod app {
                 rx: crate::link::Receiver,
                 serial,
                 snapshot,
-                session: Session::new(
-                    cfg.tuning(),
-                    Identity {
-                        board: cfg.board,
-                        build: concat!("flexarm-firmware ", env!("CARGO_PKG_VERSION")),
-                        params_hash,
-                        motor_hz: MOTOR_HZ,
-                        piezo_hz: PIEZO_HZ,
-                        test_commands: cfg!(feature = "link-session"),
-                    },
-                ),
+                session,
                 piezo_ticks: 0,
                 motor: MotorLoop::new(&cfg, config::START_TICK),
+                heat_store,
                 // The boot move starts with the first motor period.
                 move_clock: MoveClock::new(config::START_TICK, MOTOR_HZ),
                 last_heartbeat: 0,
@@ -494,10 +539,11 @@ mod app {
     fn finish(cx: &mut idle::Context) {
         use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
         let fault = cx.shared.control.lock(|c| c.ctrl.fault());
+        let recorded = cx.shared.recorder.lock(|r| (r.fault(), r.sealed()));
         let ok = cx
             .shared
             .board
-            .lock(|b| crate::verdict::judge(&b.run, fault, b.sim.arm.enabled()));
+            .lock(|b| crate::verdict::judge(&b.run, fault, b.sim.arm.enabled(), recorded));
         exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
     }
 
@@ -536,14 +582,18 @@ mod app {
 
     /// Motor loop: encoders and film in, the drive's step (observer, Eq. 7, motion checks),
     /// torques out, the fault recorder, telemetry.
-    #[task(binds = TIM3, priority = 2, local = [tim3, producer, move_clock, motor], shared = [control, drive, recorder, board])]
+    #[task(binds = TIM3, priority = 2, local = [tim3, producer, move_clock, motor, heat_store], shared = [control, drive, recorder, board])]
     fn motor_loop(mut cx: motor_loop::Context) {
         let start = clock::now();
         cx.local.tim3.sr().write(|w| w.uif().clear_bit());
         let sensed = cx.shared.board.lock(period::sense);
         let motor = cx.local.motor;
-        let p = (&mut cx.shared.control, &mut cx.shared.drive)
-            .lock(|c, d| period::motor_step(motor, c, d, &sensed));
+        let (p, heat) = (&mut cx.shared.control, &mut cx.shared.drive).lock(|c, d| {
+            let p = period::motor_step(motor, c, d, &sensed);
+            (p, d.monitor().heat)
+        });
+        // The heat survives a reset (a reset in the middle of this write finds it invalid).
+        cx.local.heat_store.store(heat);
         // The time since boot (the boot move's time), from the integer tick difference.
         let t = cx.local.move_clock.local_time(p.tick);
         cx.shared.board.lock(|b| {
@@ -562,7 +612,7 @@ mod app {
             }
         });
 
-        #[cfg(feature = "inject-panic")]
+        #[cfg(any(feature = "inject-panic", feature = "inject-reset"))]
         if cx.local.move_clock.elapsed(p.tick) == MOTOR_HZ {
             panic!("injected panic in the motor loop at t = 1 s");
         }
@@ -621,7 +671,7 @@ mod app {
 
     /// Supervisor: liveness of both loops, watchdog, enable line, fault report,
     /// load report once a second.
-    #[task(binds = TIM4, priority = 1, local = [tim4, last_heartbeat, last_piezo_beat, supervisor_ticks, reported_fault, #[cfg(feature = "hw")] iwdg], shared = [control, board])]
+    #[task(binds = TIM4, priority = 1, local = [tim4, last_heartbeat, last_piezo_beat, supervisor_ticks, reported_fault, #[cfg(feature = "hw")] iwdg], shared = [control, board, recorder])]
     fn supervisor(mut cx: supervisor::Context) {
         cx.local.tim4.sr().write(|w| w.uif().clear_bit());
         // Both control loops must have run since the last check.
@@ -637,6 +687,12 @@ mod app {
         });
         if fault.is_some() {
             cx.shared.board.lock(safe_outputs);
+        }
+        // A stalled loop: the motor loop, which freezes the recorder with the faulting sample,
+        // may be the one that stopped. Frozen here (its first fault kept), and sealed before
+        // the watchdog's reset.
+        if let (Some(f), false) = (fault, alive) {
+            cx.shared.recorder.lock(|r| r.freeze(f));
         }
         // Feed the watchdog only while both loops run: a stalled loop resets the chip.
         #[cfg(feature = "hw")]

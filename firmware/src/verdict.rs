@@ -66,9 +66,24 @@ impl RunCheck {
     }
 }
 
-/// Logs the figures and returns whether the run passed, given the latched fault and the
-/// enable line now.
-pub fn judge(c: &RunCheck, fault: Option<Fault>, enabled: bool) -> bool {
+/// Logs the figures and returns whether the run passed, given the latched fault, the enable
+/// line now and the fault recorder's fault and seal.
+pub fn judge(
+    c: &RunCheck,
+    fault: Option<Fault>,
+    enabled: bool,
+    recorded: (Option<Fault>, bool),
+) -> bool {
+    // A stalled loop's overrun is latched by the supervisor, not by the motor loop that freezes
+    // the recorder: the supervisor must have frozen and sealed it (issue 33).
+    if cfg!(feature = "inject-piezo-stall") && recorded != (EXPECTED_FAULT, true) {
+        defmt::error!(
+            "FAIL: the fault recorder was not frozen and sealed with the overrun (it holds {=str}, sealed {=bool})",
+            recorded.0.map_or("none", Fault::as_str),
+            recorded.1
+        );
+        return false;
+    }
     let (max_error, max_tip, final_tip) = (c.max_error, c.max_tip, c.final_tip);
     let tail_error = c.tail_error_sum / c.tail_samples.max(1) as f32;
     let misses = stats::PIEZO.misses() + stats::MOTOR.misses();
@@ -144,4 +159,79 @@ pub fn judge(c: &RunCheck, fault: Option<Fault>, enabled: bool) -> bool {
             false
         }
     }
+}
+
+/// The reset run's second boot (`inject-reset`): the first boot panicked in the motor loop at
+/// t = 1 s, whose handler froze the recorder ([`Fault::Watchdog`]: no fault had latched) and
+/// reset the system. Reads the recorder as a host would, through the link's replies to
+/// `Faults` (`Session::answer`), and passes only if it holds the pre-reset fault and every
+/// sample up to the panic's period (ticks 0 to 100, one a period at 100 Hz), and the motors'
+/// heat was restored from its store (the first boot's motors were assumed hot, 0.9, and
+/// cooled: a restored heat is below that and above 0). Then exits.
+#[cfg(feature = "inject-reset")]
+pub fn after_reset(
+    session: &mut flexarm_machine::session::Session,
+    control: &mut flexarm_machine::period::Control,
+    drive: &mut flexarm_core::drive::Drive<f32>,
+    recorder: &mut flexarm_machine::period::FaultRecorder,
+    heat_restored: bool,
+) -> ! {
+    use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
+    use flexarm_link::{Command, Reply};
+    let io = flexarm_machine::session::Io {
+        y: flexarm_core::observer::Measurement {
+            theta: flexarm_core::Vector2::zeros(),
+            v_f: 0.0,
+        },
+        amplifier_fault: false,
+        ticks: 0,
+        dropped: 0,
+        rx_bytes: 0,
+        rx_lost: 0,
+        stack_used: 0,
+        loads: [flexarm_link::msg::Load::default(); 2],
+    };
+    let mut page =
+        |from: u16| match session.answer(Command::Faults { from }, control, drive, recorder, &io) {
+            Reply::Faults(p) => Some((
+                p.fault,
+                p.total,
+                p.samples.first().map(|s| s.tick),
+                p.samples.last().map(|s| s.tick),
+            )),
+            _ => None,
+        };
+    let first = page(0);
+    let total = first.map_or(0, |p| p.1);
+    let last = page(total.saturating_sub(1));
+    let expected_last = u64::from(config::MOTOR_HZ);
+    let heat = drive.monitor().heat;
+    let hot = drive.motion.thermal.assumed_hot();
+    defmt::info!(
+        "after the reset: the link's fault page: fault {=?}, {=u16} samples, ticks {=?} to {=?}; motor heat restored {=bool}: ({=f32}, {=f32})",
+        first.and_then(|p| p.0),
+        total,
+        first.and_then(|p| p.2),
+        last.and_then(|p| p.3),
+        heat_restored,
+        heat.x,
+        heat.y
+    );
+    let ok = first.and_then(|p| p.0) == Some(Fault::Watchdog as u8)
+        && u64::from(total) == expected_last + 1
+        && first.and_then(|p| p.2) == Some(0)
+        && last.and_then(|p| p.3) == Some(expected_last)
+        && heat_restored
+        && heat.x > 0.0
+        && heat.x < hot
+        && heat.y > 0.0
+        && heat.y < hot;
+    if ok {
+        defmt::info!("PASS: the fault recorder and the motors' heat survived the reset");
+    } else {
+        defmt::error!("FAIL: the fault recorder or the heat did not survive the reset");
+    }
+    exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
+    #[allow(clippy::empty_loop)]
+    loop {}
 }

@@ -289,6 +289,13 @@ impl Session {
                 Reply::Done
             }
             Command::Get(p) => match home(p) {
+                // The rated limit, not the one the motors' heat derates it to now: what a `Set`
+                // sets and a configuration's dump keeps (issue 33: after a power-on the motors
+                // are assumed hot, and a dump read the derating of the moment).
+                Home::Tuning(Tunable::TauMax(i)) => match drive.rated_torque().get(i) {
+                    Some(&v) => Reply::Value(v),
+                    None => Reply::Refused(tune_refusal(TuneError::Unknown)),
+                },
                 Home::Tuning(t) => match self.tuning.get(ctrl, t) {
                     Ok(v) => Reply::Value(v),
                     Err(e) => Reply::Refused(tune_refusal(e)),

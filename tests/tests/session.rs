@@ -435,3 +435,32 @@ fn requests_are_decoded_from_the_bytes_and_a_corrupted_frame_is_refused() {
     let errors: Vec<_> = bad.iter().filter_map(|b| r.session.receive(*b)).collect();
     assert!(matches!(errors[..], [Err(_)]), "{errors:?}");
 }
+
+/// After a power-on the motors are assumed hot (issue 33: `Drive::restore_heat` without a
+/// valid store) and the controller's torque limit is derated, changing every period as they
+/// cool: `Get` reads the rated limit, which a `Set` sets and a configuration's dump keeps; a
+/// limit set while hot holds and stays once cool.
+#[test]
+fn the_torque_limit_reads_the_rated_value_while_the_motors_are_hot() {
+    use flexarm_core::retained::HeatStore;
+    let mut r = qemu();
+    let cfg = r.cfg;
+    assert!(!r.drive.restore_heat(&HeatStore::invalid()));
+    run(&mut r, 10);
+    assert!(
+        r.control.ctrl.motor.limits.tau_max.x < cfg.limits.tau_max.x,
+        "derated"
+    );
+    assert_eq!(
+        r.answer(Command::Get(Param::TauMax0)),
+        Reply::Value(cfg.limits.tau_max.x)
+    );
+    assert_eq!(r.answer(Command::Set(Param::TauMax0, 3.0)), Reply::Done);
+    run(&mut r, 10);
+    assert!(r.control.ctrl.motor.limits.tau_max.x <= 3.0);
+    assert_eq!(r.answer(Command::Get(Param::TauMax0)), Reply::Value(3.0));
+    r.drive.heat_for_test(flexarm_core::Vector2::zeros());
+    run(&mut r, 2);
+    assert_eq!(r.control.ctrl.motor.limits.tau_max.x, 3.0);
+    assert_eq!(r.control.ctrl.motor.limits.tau_max.y, cfg.limits.tau_max.y);
+}
