@@ -958,13 +958,16 @@ fn print_status(s: &Status) {
         );
     }
     println!(
-        "motor periods {}, telemetry dropped {}, watchdog stops {}, received {} bytes ({} lost, {} malformed requests), stack {} bytes",
+        "motor periods {}, telemetry dropped {}, watchdog stops {}, received {} bytes ({} lost, {} malformed requests; line: {} overruns, {} framing, {} noise), stack {} bytes",
         s.ticks,
         s.telemetry_dropped,
         s.link_stops,
         s.rx_bytes,
         s.rx_lost,
         s.rx_malformed,
+        s.rx_line.overrun,
+        s.rx_line.framing,
+        s.rx_line.noise,
         s.stack_used
     );
 }

@@ -75,6 +75,7 @@ fn ours(c: &Command) -> Option<Reply> {
             rx_bytes: 99,
             rx_lost: 0,
             rx_malformed: 0,
+            rx_line: Default::default(),
             stack_used: 1700,
         }),
         Command::Arm => Reply::Done,
@@ -98,6 +99,7 @@ fn status_in(mode: Mode, link_stops: u32) -> Status {
         rx_bytes: 0,
         rx_lost: 0,
         rx_malformed: 0,
+        rx_line: Default::default(),
         stack_used: 0,
     }
 }

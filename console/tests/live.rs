@@ -136,6 +136,7 @@ fn status(mode: Mode, fault: Option<u8>) -> Status {
         rx_bytes: 0,
         rx_lost: 0,
         rx_malformed: 0,
+        rx_line: Default::default(),
         stack_used: 0,
     }
 }

@@ -25,20 +25,42 @@ pub struct Serial {
 /// USART1's receive side (the receive interrupt's).
 pub struct Receiver;
 
+/// What one read of the receiver found (RM0090 §30.6.1: the flags belong to the byte in DR;
+/// reading SR then DR clears them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Received {
+    /// A good byte.
+    Byte(u8),
+    /// A good byte, after one or more bytes lost because DR was not read in time (ORE).
+    AfterOverrun(u8),
+    /// A byte with a framing or parity error (FE, PE), dropped: the frame's CRC refuses the
+    /// frame it belonged to.
+    Framing,
+    /// A byte with noise (NF), dropped likewise.
+    Noise,
+}
+
 impl Receiver {
-    /// The byte in the data register, if one arrived (clears the interrupt); a byte with a
-    /// framing or parity error is dropped (the frame's CRC then refuses the frame).
-    pub fn read(&mut self) -> Option<u8> {
+    /// What the data register holds, if a byte arrived (the read clears the interrupt).
+    pub fn read(&mut self) -> Option<Received> {
         // SAFETY: the receiver only reads SR and DR; the transmitter ([`Serial`]) only reads
         // SR and writes DR. Reading SR has no side effect; reading DR clears RXNE and ORE,
         // which only the receiver does.
         let usart = unsafe { &*USART1::ptr() };
         let sr = usart.sr().read();
-        if sr.rxne().bit_is_set() || sr.ore().bit_is_set() {
-            let byte = usart.dr().read().dr().bits() as u8;
-            return (sr.fe().bit_is_clear() && sr.pe().bit_is_clear()).then_some(byte);
+        if sr.rxne().bit_is_clear() && sr.ore().bit_is_clear() {
+            return None;
         }
-        None
+        let byte = usart.dr().read().dr().bits() as u8;
+        Some(if sr.fe().bit_is_set() || sr.pe().bit_is_set() {
+            Received::Framing
+        } else if sr.nf().bit_is_set() {
+            Received::Noise
+        } else if sr.ore().bit_is_set() {
+            Received::AfterOverrun(byte)
+        } else {
+            Received::Byte(byte)
+        })
     }
 }
 

@@ -99,6 +99,11 @@ mod app {
         core::sync::atomic::AtomicBool::new(false);
     /// Link bytes received.
     static RX_BYTES: AtomicU32 = AtomicU32::new(0);
+    /// The receiver's line errors (`flexarm_link::msg::LineErrors`): overruns, framing or
+    /// parity errors, noise.
+    static RX_OVERRUNS: AtomicU32 = AtomicU32::new(0);
+    static RX_FRAMING: AtomicU32 = AtomicU32::new(0);
+    static RX_NOISE: AtomicU32 = AtomicU32::new(0);
     /// Telemetry records the motor loop could not queue.
     static TELEMETRY_DROPS: AtomicU32 = AtomicU32::new(0);
 
@@ -498,6 +503,11 @@ mod app {
             dropped: TELEMETRY_DROPS.load(Relaxed),
             rx_bytes: RX_BYTES.load(Relaxed),
             rx_lost: RX_OVERFLOWS.load(Relaxed),
+            rx_line: flexarm_link::msg::LineErrors {
+                overrun: RX_OVERRUNS.load(Relaxed),
+                framing: RX_FRAMING.load(Relaxed),
+                noise: RX_NOISE.load(Relaxed),
+            },
             // A scan of the stack region, for a status only (outside every lock).
             stack_used: match request.command {
                 flexarm_link::Command::Status => crate::stack::used(),
@@ -661,8 +671,24 @@ mod app {
     /// The command link's receive interrupt: bytes from USART1 into the queue, nothing else.
     #[task(binds = USART1, priority = 1, local = [rx, rx_producer])]
     fn link_rx(cx: link_rx::Context) {
-        while let Some(b) = cx.local.rx.read() {
+        use crate::link::Received;
+        while let Some(r) = cx.local.rx.read() {
             RX_BYTES.fetch_add(1, Relaxed);
+            let b = match r {
+                Received::Byte(b) => b,
+                Received::AfterOverrun(b) => {
+                    RX_OVERRUNS.fetch_add(1, Relaxed);
+                    b
+                }
+                Received::Framing => {
+                    RX_FRAMING.fetch_add(1, Relaxed);
+                    continue;
+                }
+                Received::Noise => {
+                    RX_NOISE.fetch_add(1, Relaxed);
+                    continue;
+                }
+            };
             if cx.local.rx_producer.enqueue(b).is_err() {
                 RX_OVERFLOWS.fetch_add(1, Relaxed);
             }

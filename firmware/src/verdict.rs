@@ -188,6 +188,7 @@ pub fn after_reset(
         dropped: 0,
         rx_bytes: 0,
         rx_lost: 0,
+        rx_line: Default::default(),
         stack_used: 0,
         loads: [flexarm_link::msg::Load::default(); 2],
     };

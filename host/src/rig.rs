@@ -175,6 +175,7 @@ impl<B: Board> Rig<B> {
             dropped: self.dropped,
             rx_bytes: 0,
             rx_lost: 0,
+            rx_line: Default::default(),
             stack_used: 0,
             loads: Default::default(),
         };

@@ -394,6 +394,20 @@ pub struct Load {
     pub misses: u32,
 }
 
+/// The receiver's line errors since boot, as the UART flags them (issue 34). A board's
+/// receiver counts them; QEMU's USART never raises them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LineErrors {
+    /// Overruns: a byte arrived while the data register still held the one before, which was
+    /// lost (each counts one or more lost bytes; the one read is kept).
+    pub overrun: u32,
+    /// Framing (or parity) errors: a byte without its stop bit (a wrong baud rate, a break, a
+    /// glitch), dropped.
+    pub framing: u32,
+    /// Noise: a byte whose bits the receiver's oversampling saw disagree, dropped.
+    pub noise: u32,
+}
+
 /// The status.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Status {
@@ -416,6 +430,8 @@ pub struct Status {
     /// Request frames that did not decode (damaged or cut on the line: each a lost request,
     /// which has no id to answer).
     pub rx_malformed: u32,
+    /// The receiver's line errors.
+    pub rx_line: LineErrors,
     /// The stack's high-water mark since boot [bytes].
     pub stack_used: u32,
 }

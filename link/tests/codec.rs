@@ -125,6 +125,7 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
                     rx_bytes: rx,
                     rx_lost: lost,
                     rx_malformed: 0,
+                    rx_line: Default::default(),
                     stack_used: stack,
                 })
             },
@@ -292,7 +293,12 @@ fn the_largest_of_every_message_fits_a_frame() {
                 link_stops: u32::MAX,
                 rx_bytes: u32::MAX,
                 rx_lost: u32::MAX,
-                rx_malformed: 0,
+                rx_malformed: u32::MAX,
+                rx_line: flexarm_link::msg::LineErrors {
+                    overrun: u32::MAX,
+                    framing: u32::MAX,
+                    noise: u32::MAX,
+                },
                 stack_used: u32::MAX,
             }),
         },
@@ -333,6 +339,7 @@ fn a_message_by_reference_is_the_same_frame() {
         rx_bytes: 300,
         rx_lost: 4,
         rx_malformed: 0,
+        rx_line: Default::default(),
         stack_used: 1800,
     });
     let t = Telemetry {

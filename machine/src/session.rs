@@ -64,6 +64,8 @@ pub struct Io {
     pub rx_bytes: u32,
     /// Bytes lost because the receive queue was full.
     pub rx_lost: u32,
+    /// The receiver's line errors.
+    pub rx_line: flexarm_link::msg::LineErrors,
     /// The stack's high-water mark [bytes] (measured for a status request only).
     pub stack_used: u32,
     /// The piezo and motor loops' loads (for a status request only).
@@ -232,6 +234,7 @@ impl Session {
                 rx_bytes: io.rx_bytes,
                 rx_lost: io.rx_lost,
                 rx_malformed: self.malformed,
+                rx_line: io.rx_line,
                 stack_used: io.stack_used,
             }),
             Command::Ping => Reply::Done,
