@@ -946,8 +946,19 @@ fn print_status(s: &Status) {
         Mode::Moving => "moving",
         Mode::Stopping => "stopping",
         Mode::Fault => "FAULT (safe state)",
+        Mode::Homing => "homing (a search runs)",
     };
     println!("mode: {mode}");
+    println!(
+        "homing: joint 1 {}, joint 2 {}{}",
+        home_state(s.homing[0]),
+        home_state(s.homing[1]),
+        if s.homing_failed {
+            " (the last search failed: it travelled its limit without finding its reference)"
+        } else {
+            ""
+        }
+    );
     if let Some(f) = s.fault {
         println!("fault: {f} ({})", fault_name(f));
     }
@@ -967,4 +978,15 @@ fn print_status(s: &Status) {
         s.rx_malformed,
         s.stack_used
     );
+}
+
+/// A joint's homing state in words: a declared pose is the operator's word, never "homed".
+fn home_state(s: flexarm_link::msg::HomeState) -> &'static str {
+    use flexarm_link::msg::HomeState;
+    match s {
+        HomeState::Unhomed => "NOT HOMED",
+        HomeState::Searching => "searching",
+        HomeState::Homed => "homed",
+        HomeState::Declared => "DECLARED by the operator (not homed)",
+    }
 }

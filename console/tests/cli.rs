@@ -7,7 +7,7 @@ use std::net::TcpListener;
 use std::process::{Command as Process, Output};
 use std::thread;
 
-use flexarm_link::msg::{Board, Hello, Load, Mode, Param, Refusal, Status};
+use flexarm_link::msg::{Board, Hello, HomeState, Load, Mode, Param, Refusal, Status};
 use flexarm_link::{Command, Decoder, DeviceMsg, MAX_FRAME, Reply, Request, VERSION, encode};
 
 /// A stand-in firmware on a fresh local port: answers each request with `answer`, until the
@@ -76,6 +76,8 @@ fn ours(c: &Command) -> Option<Reply> {
             rx_lost: 0,
             rx_malformed: 0,
             stack_used: 1700,
+            homing: [HomeState::Homed; 2],
+            homing_failed: false,
         }),
         Command::Arm => Reply::Done,
         Command::Get(_) => Reply::Value(30.0),
@@ -99,6 +101,8 @@ fn status_in(mode: Mode, link_stops: u32) -> Status {
         rx_lost: 0,
         rx_malformed: 0,
         stack_used: 0,
+        homing: [HomeState::Homed; 2],
+        homing_failed: false,
     }
 }
 

@@ -274,6 +274,10 @@ mod app {
         // After the timers start: code before them shifts the QEMU timers' phase, and with it
         // the uptime runs' equality (scripts/qemu-uptime), by its tick-dependent length.
         let mut drive = cfg.drive(&mut ctrl, config::START_TICK);
+        // The QEMU board's simulated arm: its encoders read the plant's own angles, the arm's
+        // frame, declared (issue 33; status shows it declared, not homed).
+        #[cfg(feature = "qemu")]
+        let _ = drive.declare_zero(&mut ctrl);
         if config::BOOT_MOVE && ctrl.fault().is_none() {
             let half_pi = core::f32::consts::FRAC_PI_2;
             let boot = MoveRequest::Trapezoid {

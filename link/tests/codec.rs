@@ -74,6 +74,8 @@ fn command() -> impl Strategy<Value = Command> {
         any::<u16>().prop_map(|from| Command::Faults { from }),
         Just(Command::Ping),
         any::<bool>().prop_map(Command::TestAmplifierFault),
+        Just(Command::Home),
+        (-4.0f32..4.0, -4.0f32..4.0).prop_map(|(a, b)| Command::DeclareHome { theta: [a, b] }),
     ]
 }
 
@@ -101,7 +103,8 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
         Just(Mode::Armed),
         Just(Mode::Moving),
         Just(Mode::Stopping),
-        Just(Mode::Fault)
+        Just(Mode::Fault),
+        Just(Mode::Homing)
     ];
     let status = (
         mode,
@@ -126,6 +129,8 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
                     rx_lost: lost,
                     rx_malformed: 0,
                     stack_used: stack,
+                    homing: [HomeState::Declared; 2],
+                    homing_failed: false,
                 })
             },
         );
@@ -294,6 +299,8 @@ fn the_largest_of_every_message_fits_a_frame() {
                 rx_lost: u32::MAX,
                 rx_malformed: 0,
                 stack_used: u32::MAX,
+                homing: [HomeState::Declared; 2],
+                homing_failed: false,
             }),
         },
     ];
@@ -334,6 +341,8 @@ fn a_message_by_reference_is_the_same_frame() {
         rx_lost: 4,
         rx_malformed: 0,
         stack_used: 1800,
+        homing: [HomeState::Declared; 2],
+        homing_failed: false,
     });
     let t = Telemetry {
         seq: 9,
