@@ -877,3 +877,94 @@ fn faults_without_a_fault_refuses() {
     );
     assert!(!dir.exists(), "nothing written");
 }
+
+/// Homing's stand-in: refuses `arm` as not homed until `Home`, answers the first two status
+/// requests after it as homing, then holding with both joints homed.
+fn homing_firmware(c: &Command) -> Option<Reply> {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static POLLS: AtomicU32 = AtomicU32::new(0);
+    Some(match c {
+        Command::Arm => Reply::Refused(Refusal::NotHomed),
+        Command::Home => {
+            POLLS.store(1, Ordering::SeqCst);
+            Reply::Done
+        }
+        Command::Status => {
+            let n = POLLS.fetch_add(1, Ordering::SeqCst);
+            let mut s = status_in(Mode::Homing, 0);
+            s.homing = [HomeState::Searching, HomeState::Unhomed];
+            if n == 0 {
+                s.mode = Mode::Disarmed;
+                s.homing = [HomeState::Unhomed; 2];
+            } else if n >= 3 {
+                s.mode = Mode::Armed;
+                s.homing = [HomeState::Homed; 2];
+            }
+            Reply::Status(s)
+        }
+        c => return ours(c),
+    })
+}
+
+/// A stand-in on which a declared pose is shown declared.
+fn declared_firmware(c: &Command) -> Option<Reply> {
+    Some(match c {
+        Command::DeclareHome { theta } if theta.iter().all(|t| t.is_finite()) => Reply::Done,
+        Command::Status => {
+            let mut s = status_in(Mode::Disarmed, 0);
+            s.homing = [HomeState::Declared; 2];
+            Reply::Status(s)
+        }
+        c => return ours(c),
+    })
+}
+
+#[test]
+fn arm_is_refused_until_homed_and_home_waits_for_the_searches() {
+    let at = |port: u16| format!("127.0.0.1:{port}");
+    let port = firmware(homing_firmware);
+    fails_with(&["--tcp", &at(port), "arm"], "a joint is not homed");
+    let o = flexarm(&["--tcp", &at(firmware(homing_firmware)), "home"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(
+        out, "home: done, holding (joint 1 homed, joint 2 homed)\n",
+        "{err}"
+    );
+    // The status names each joint's state; an unhomed one loudly.
+    let o = flexarm(&["--tcp", &at(firmware(ours)), "status"]);
+    assert!(text(&o).0.contains("homing: joint 1 homed, joint 2 homed"));
+}
+
+#[test]
+fn a_declared_pose_is_warned_about_and_shown_declared() {
+    let at = |port: u16| format!("127.0.0.1:{port}");
+    let o = flexarm(&[
+        "--tcp",
+        &at(firmware(declared_firmware)),
+        "home",
+        "--declare",
+        "2.0,-0.3",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.starts_with("WARNING: declaring the pose without homing"),
+        "{err}"
+    );
+    assert!(
+        out.contains("(2, -0.3) rad by the operator's word")
+            && out.contains("DECLARED by the operator (not homed)"),
+        "{out}"
+    );
+    fails_with(
+        &[
+            "--tcp",
+            &at(firmware(declared_firmware)),
+            "home",
+            "--declare",
+            "1",
+        ],
+        "--declare takes two values",
+    );
+}
