@@ -303,7 +303,10 @@ fn a_reversed_encoder_during_a_search_is_cut_by_the_speed_bound() {
         }
     }
     let k = cut.expect("the search was not cut");
-    assert_eq!(rig.control.ctrl.fault(), Some(flexarm_core::Fault::Overspeed));
+    assert_eq!(
+        rig.control.ctrl.fault(),
+        Some(flexarm_core::Fault::Overspeed)
+    );
     let travel = (rig.board.sim.arm.x.q.x - start).abs();
     eprintln!("reversed encoder: cut after {k} ms, {travel:.3} rad of travel");
     assert!(k < 1000 && travel < 0.5, "{k} ms, {travel} rad");
