@@ -313,3 +313,31 @@ fn a_reversed_encoder_during_a_search_is_cut_by_the_speed_bound() {
     assert_eq!(rig.drive.homing().state(0), State::Unhomed);
     assert_eq!(rig.arm(), Err(Refused::Faulted));
 }
+
+/// A fault whose cause may have lost encoder counts (a jump of the reading) loses the homing
+/// with it: after `clear`, `arm` is refused until the joints are homed or declared again. A
+/// reset does the same (the drive is built unhomed: every test above starts so).
+#[test]
+fn clearing_an_encoder_fault_forgets_the_homing() {
+    let mut rig = scenario();
+    rig.declare_encoders().unwrap();
+    run(&mut rig, 0.05);
+    // The counter slips by 0.5 rad in one period.
+    rig.board.zero[0] -= 0.5;
+    run(&mut rig, 0.01);
+    assert_eq!(
+        rig.control.ctrl.fault(),
+        Some(flexarm_core::Fault::EncoderJump)
+    );
+    assert!(matches!(rig.answer(Command::Clear), Reply::Cleared(_)));
+    assert_eq!(rig.drive.homing().states(), [State::Unhomed; 2]);
+    assert_eq!(rig.arm(), Err(Refused::NotHomed));
+    // An amplifier fault keeps it (the counts are not in question).
+    let mut rig = scenario();
+    rig.declare_encoders().unwrap();
+    rig.control.ctrl.trip(flexarm_core::Fault::Amplifier);
+    run(&mut rig, 0.01);
+    assert!(matches!(rig.answer(Command::Clear), Reply::Cleared(_)));
+    assert_eq!(rig.drive.homing().states(), [State::Declared; 2]);
+    assert_eq!(rig.arm(), Ok(()));
+}
