@@ -7,6 +7,12 @@
 //! | `Moving` | on | the move | its end (→ `Armed`), `stop`, `disarm`, a fault |
 //! | `Stopping` | on | a controlled stop at the move limits' deceleration ([`Drive::stop`]) | its end (→ `Armed`), `disarm`, a fault |
 //! | `Fault` | off (latched) | — | `clear`, when the cause is gone (→ `Disarmed`) |
+//! | `Homing` | on, at the search torque | a joint's search ([`Drive::home`], `crate::homing`) | every joint found (→ `Armed`), a failed search, `stop`, `disarm` (→ `Disarmed`), a fault |
+//!
+//! Homing (issue 33): the encoders count from the power-up pose; the drive maps their reading
+//! into the arm's frame with each joint's offset ([`Drive::arm_frame`]) before any check, and
+//! refuses `arm` and moves ([`Refused::NotHomed`]) until every joint is homed or declared
+//! ([`Drive::declare`], [`Drive::declare_zero`]).
 //!
 //! The link watchdog: once a host has spoken ([`Drive::heard`]), a move that goes on for
 //! [`Drive::link_timeout`] motor periods without hearing from it again is stopped as by
