@@ -214,24 +214,6 @@ impl Board for SimBoard {
         let Ok(low) = self.fault_n.is_low();
         low
     }
-    /// The simulated arm's index pulses (the link session's arm has marks), through the
-    /// configured wiring as [`Self::encoders`] reads the counts.
-    #[cfg(feature = "link-session")]
-    fn homing_inputs(&mut self) -> flexarm_core::homing::Inputs<f32> {
-        let mut inputs = Board::homing_inputs(&mut self.sim);
-        let counts = self.sim.arm.sensors.counts_per_rev;
-        let sign = |r: bool| if r { -1.0 } else { 1.0 };
-        for (j, at) in inputs.index.iter_mut().enumerate() {
-            if let (Some(a), Some(&r), Some(&per_rev)) = (
-                at.as_mut(),
-                wiring::ENCODER_REVERSED.get(j),
-                wiring::COUNTS_PER_REV.get(j),
-            ) {
-                *a *= sign(r) * (counts / per_rev);
-            }
-        }
-        inputs
-    }
     fn motor_period(&mut self, t: f32) {
         self.run.observe(&self.sim.arm, self.sim.diverged, t);
     }
