@@ -10,9 +10,9 @@
 //!
 //! | [`Method`] | the reference | found when | `offset_j` |
 //! |---|---|---|---|
-//! | [`Method::Index`] | the encoder's index mark (one per joint revolution) | the board latches the count at the index pulse ([`Inputs::index`]) | `angle − θ_enc(index)` |
+//! | [`Method::Index`] | the encoder's index mark (one per joint revolution) | the board latches the count at the index pulse ([`Inputs::latched`]) | `angle − θ_enc(index)` |
 //! | [`Method::EndStop`] | a mechanical end stop | the joint has not moved by `stall_travel` for `stall_time` while its torque is at the search limit, pushing towards the stop | `angle − θ_enc` |
-//! | [`Method::Switch`] | a limit switch | the switch input is active ([`Inputs::switch`]) | `angle − θ_enc` at the first active sample |
+//! | [`Method::Switch`] | a limit switch | the board latches the count at the switch's active edge ([`Inputs::latched`], as for an index) | `angle − θ_enc(edge)` |
 //!
 //! Each is a search: the joint moves at `speed` [rad/s] (its sign is the direction) with the
 //! torque limit lowered to `torque` [N·m], at most `travel` [rad] from where the search
@@ -139,19 +139,18 @@ impl State {
 /// The board's homing inputs of one motor period.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Inputs<T> {
-    /// Per joint: the encoder reading [rad] latched at an index pulse since the last period's
-    /// inputs, if one came.
-    pub index: [Option<T>; 2],
-    /// Per joint: the limit switch is active.
-    pub switch: [bool; 2],
+    /// Per joint: the encoder reading [rad] the board latched at the reference's edge (an
+    /// index pulse, or a limit switch's active edge) since the last period's inputs; NaN when
+    /// none came. (One number a joint: the motor loop carries these every period, on a stack
+    /// whose bound is budgeted.)
+    pub latched: [T; 2],
 }
 
-impl<T> Default for Inputs<T> {
-    /// No index pulse, no switch active.
+impl<T: Real> Default for Inputs<T> {
+    /// Nothing latched.
     fn default() -> Self {
         Self {
-            index: [None, None],
-            switch: [false; 2],
+            latched: [T::c(f64::NAN); 2],
         }
     }
 }
@@ -290,18 +289,12 @@ impl<T: Real> Homing<T> {
             return Search::Failed;
         };
         let found = match cfg.method {
-            Method::Index => inputs
-                .index
+            Method::Index | Method::Switch => inputs
+                .latched
                 .get(j)
                 .copied()
-                .flatten()
+                .filter(|at| at.finite())
                 .map(|at| cfg.angle - at),
-            Method::Switch => inputs
-                .switch
-                .get(j)
-                .copied()
-                .unwrap_or(false)
-                .then(|| cfg.angle - theta_enc),
             Method::EndStop => self.stall(&cfg, theta_enc, tau, dt),
         };
         let result = match found {
@@ -383,8 +376,7 @@ mod tests {
         assert_eq!(h.search(0, 0.1, 0.2, &none, 1e-3), Search::Running);
         assert_eq!(h.state(0), State::Searching);
         let pulse = Inputs {
-            index: [Some(0.25), None],
-            switch: [false; 2],
+            latched: [0.25, f64::NAN],
         };
         assert_eq!(h.search(0, 0.26, 0.2, &pulse, 1e-3), Search::Found(2.75));
         assert_eq!(h.state(0), State::Homed);
@@ -394,12 +386,11 @@ mod tests {
     }
 
     #[test]
-    fn a_switch_homes_at_the_first_active_sample() {
+    fn a_switch_homes_at_its_latched_edge() {
         let mut h = Homing::new(config(Method::Switch));
         h.begin(0, -1.0);
         let on = Inputs {
-            index: [None; 2],
-            switch: [true, false],
+            latched: [-0.5, f64::NAN],
         };
         assert_eq!(h.search(0, -0.5, 0.0, &on, 1e-3), Search::Found(3.5));
     }

@@ -29,8 +29,8 @@ pub trait Board {
     /// `true` while an amplifier reports a fault.
     fn amplifier_fault(&mut self) -> bool;
     /// The homing inputs (issue 33, `flexarm_core::homing`): per joint, the encoder reading
-    /// [rad] latched at an index pulse since the last call, and whether the limit switch is
-    /// active. A board without them returns none.
+    /// [rad] latched at an index pulse (or a limit switch's edge) since the last call, NaN
+    /// when none came. A board without them returns none.
     fn homing_inputs(&mut self) -> Inputs<f32> {
         Inputs::default()
     }

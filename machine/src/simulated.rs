@@ -38,8 +38,9 @@ pub struct SimulatedArm {
     /// The encoders' index marks, at the plant's angles [rad] (∞: none): crossing one latches
     /// the encoder's count ([`Board::homing_inputs`]).
     pub index: [f32; 2],
-    /// The counts latched at index pulses since the last [`Board::homing_inputs`] [rad].
-    latched: [Option<f32>; 2],
+    /// The counts latched at index pulses since the last [`Board::homing_inputs`] [rad]; NaN:
+    /// none.
+    latched: [f32; 2],
 }
 
 impl SimulatedArm {
@@ -53,7 +54,7 @@ impl SimulatedArm {
             stop_min: [f32::NEG_INFINITY; 2],
             stop_max: [f32::INFINITY; 2],
             index: [f32::INFINITY; 2],
-            latched: [None; 2],
+            latched: [f32::NAN; 2],
         }
     }
 
@@ -104,7 +105,7 @@ impl SimulatedArm {
             if (a < mark) != (b < mark) {
                 let count = self.count(mark, zero);
                 if let Some(l) = self.latched.get_mut(j) {
-                    *l = Some(count);
+                    *l = count;
                 }
             }
         }
@@ -145,8 +146,7 @@ impl Board for SimulatedArm {
     }
     fn homing_inputs(&mut self) -> Inputs<f32> {
         Inputs {
-            index: core::mem::take(&mut self.latched),
-            switch: [false; 2],
+            latched: core::mem::replace(&mut self.latched, [f32::NAN; 2]),
         }
     }
     fn film_voltage(&mut self) -> f32 {

@@ -307,23 +307,20 @@ impl Board for HwBoard {
             (self.tim8.sr().read().bits() & (1 << 3) != 0)
                 .then(|| self.tim8.ccr3().read().bits() as u16),
         ];
-        let mut index = [None, None];
+        let mut latched = [f32::NAN; 2];
         for (j, c) in captured.iter().enumerate() {
             if let (Some(c), Some(raw), Some(count), Some(per_rev), Some(slot)) = (
                 c,
                 self.raw.get(j),
                 self.counts.get(j),
                 COUNTS_PER_REV.get(j),
-                index.get_mut(j),
+                latched.get_mut(j),
             ) {
                 let at = count.wrapping_add(i32::from(c.wrapping_sub(*raw) as i16));
-                *slot = Some(at as f32 * (TAU / per_rev));
+                *slot = at as f32 * (TAU / per_rev);
             }
         }
-        homing::Inputs {
-            index,
-            switch: [false; 2],
-        }
+        homing::Inputs { latched }
     }
 
     fn encoders(&mut self) -> Vector2<f32> {
