@@ -6,7 +6,9 @@
 //! 1. **state**: the drive is disarmed or holding, no fault latched.
 //! 2. **loop loads**: over half a second of telemetry, each loop's mean load below 50 % and no
 //!    deadline missed since boot.
-//! 3. **encoders**, joint 1 then joint 2, under the bring-up torque limit (`--torque`, default
+//! 3. **homing** (issue 33): a drive whose joints are neither homed nor declared homes them
+//!    (`crate::home`); a failed search ends the bring-up, the drive disarmed.
+//! 4. **encoders**, joint 1 then joint 2, under the bring-up torque limit (`--torque`, default
 //!    3 N·m, against the firmware's 10) and with the piezo loop off (`k_c = 0`: with a film
 //!    that reads inverted, the rate feedback would pump the link's vibration; on the QEMU
 //!    arm it drove the patch between its ±200 V limits): the drive arms (holding), then nudges the joint by
@@ -21,7 +23,7 @@
 //!    model's `2 b_ii a` estimates 1/k. It passes within 0.67–1.5: the model's inertia is not
 //!    the arm's before identification, and a scale mistake (quadrature ×4, a gear ratio, 2π) is
 //!    a factor of 2 or more.
-//! 4. **film**, holding, the piezo loop still off: the patch's voltage stepped by `--bias` V
+//! 5. **film**, holding, the piezo loop still off: the patch's voltage stepped by `--bias` V
 //!    (default 40) through `va_bias`, for one second. *Sign*: the film's static
 //!    response must have the model's sign (`V_a = −k_c V̇_f` damps only then; inverted, the
 //!    feedback would pump the vibration). *Gain*: its ratio to the model's static gain
@@ -113,9 +115,10 @@ pub struct Check {
 }
 
 /// The checks, in the order they run.
-pub const CHECKS: [&str; 8] = [
+pub const CHECKS: [&str; 9] = [
     "state",
     "loop loads",
+    "homing",
     "encoder 1 direction",
     "encoder 1 counts/rad",
     "encoder 2 direction",
@@ -261,6 +264,43 @@ struct Saved {
 /// The encoder and film checks (the drive armed from here on).
 fn experiments(c: &mut Client, o: &Options, r: &mut Report) -> Result<(), ConsoleError> {
     let model = crate::record::paper_model();
+    // Homing first (issue 33): until then the encoders count from the power-up pose and no
+    // limit holds in the arm's frame; the drive refuses to arm. A search that fails ends the
+    // bring-up here, with the drive disarmed.
+    let s = c.status()?;
+    if crate::home::known(&s) {
+        r.record(
+            "homing",
+            true,
+            format!("{:?}", s.homing).to_lowercase(),
+            "every joint homed or declared",
+            String::new(),
+        );
+    } else {
+        match crate::home::home(c) {
+            Ok(s) => {
+                r.record(
+                    "homing",
+                    true,
+                    format!("{:?}", s.homing).to_lowercase(),
+                    "every joint homed or declared",
+                    String::new(),
+                );
+            }
+            Err(e) => {
+                r.record(
+                    "homing",
+                    false,
+                    e.to_string(),
+                    "every joint homed or declared",
+                    "the board's homing configuration (BoardConfig::homing: method, angle, \
+                     search direction) and the index, end stop or switch it names"
+                        .into(),
+                );
+                return Ok(());
+            }
+        }
+    }
     if c.status()?.mode == Mode::Disarmed {
         c.done("arm", Command::Arm)?;
     }

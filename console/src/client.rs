@@ -97,6 +97,11 @@ pub fn refusal(r: Refusal) -> &'static str {
         Refusal::UnknownParam => "no such parameter",
         Refusal::NoRecord => "nothing recorded there",
         Refusal::Unsupported => "this firmware does not implement it",
+        Refusal::NotHomed => {
+            "a joint is not homed: its encoder counts from where it was at power-up, so no \
+             limit holds in the arm's frame (`flexarm home` first; `flexarm home --declare` \
+             only when you know the pose)"
+        }
     }
 }
 

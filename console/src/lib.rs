@@ -15,6 +15,7 @@ pub mod bringup;
 pub mod check;
 pub mod client;
 pub mod config;
+pub mod home;
 pub mod identify;
 pub mod interrupt;
 pub mod live;

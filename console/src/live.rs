@@ -317,6 +317,7 @@ impl View {
             Some(Mode::Moving) => ("MOVING", Color::Cyan),
             Some(Mode::Stopping) => ("STOPPING", Color::Yellow),
             Some(Mode::Fault) => ("FAULT (safe state)", Color::Red),
+            Some(Mode::Homing) => ("HOMING", Color::Yellow),
         };
         let fault = match self.status.and_then(|s| s.fault) {
             None => "none".to_string(),

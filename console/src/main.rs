@@ -76,8 +76,23 @@ enum ConfigAction {
 enum Action {
     /// The handshake and the status: mode, fault, loads, counters.
     Status,
-    /// Enable the amplifiers, holding the pose.
+    /// Enable the amplifiers, holding the pose (refused until every joint is homed or
+    /// declared: `home`).
     Arm,
+    /// Home every joint (index pulse, end stop or limit switch, as the board is configured):
+    /// the drive searches at a low torque, one joint at a time, and then holds, armed, in the
+    /// arm's frame. The first thing to do after a power-on or a reset.
+    Home {
+        /// Instead of homing, declare the pose now to be θ1,θ2 [rad] in the arm's frame
+        /// (disarmed): the drive trusts it. Only when the pose is known for certain.
+        #[arg(
+            long,
+            value_name = "THETA1,THETA2",
+            value_delimiter = ',',
+            allow_hyphen_values = true
+        )]
+        declare: Option<Vec<f32>>,
+    },
     /// Disable the amplifiers (always accepted).
     Disarm,
     /// A controlled stop of the running move (stop category 1).
@@ -410,6 +425,33 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             print_status(&c.status()?);
         }
         Action::Arm => done(&mut c, "arm", Command::Arm)?,
+        Action::Home { declare: None } => {
+            let s = flexarm_console::home::home(&mut c)?;
+            println!(
+                "home: done, holding (joint 1 {}, joint 2 {})",
+                home_state(s.homing[0]),
+                home_state(s.homing[1])
+            );
+        }
+        Action::Home {
+            declare: Some(theta),
+        } => {
+            let theta = pair("--declare", &theta)?;
+            if !theta.iter().all(|t| t.is_finite()) {
+                return Err(ConsoleError::Usage(
+                    "--declare takes finite angles [rad]".into(),
+                ));
+            }
+            eprintln!("{}", flexarm_console::home::DECLARE_WARNING);
+            let s = flexarm_console::home::declare(&mut c, theta)?;
+            println!(
+                "home --declare: the pose is ({}, {}) rad by the operator's word (joint 1 {}, joint 2 {})",
+                theta[0],
+                theta[1],
+                home_state(s.homing[0]),
+                home_state(s.homing[1])
+            );
+        }
         Action::Disarm => done(&mut c, "disarm", Command::Disarm)?,
         Action::Stop => done(&mut c, "stop", Command::Stop)?,
         Action::Estop => done(&mut c, "estop", Command::Estop)?,
@@ -946,8 +988,19 @@ fn print_status(s: &Status) {
         Mode::Moving => "moving",
         Mode::Stopping => "stopping",
         Mode::Fault => "FAULT (safe state)",
+        Mode::Homing => "homing (a search runs)",
     };
     println!("mode: {mode}");
+    println!(
+        "homing: joint 1 {}, joint 2 {}{}",
+        home_state(s.homing[0]),
+        home_state(s.homing[1]),
+        if s.homing_failed {
+            " (the last search failed: it travelled its limit without finding its reference)"
+        } else {
+            ""
+        }
+    );
     if let Some(f) = s.fault {
         println!("fault: {f} ({})", fault_name(f));
     }
@@ -970,4 +1023,15 @@ fn print_status(s: &Status) {
         s.rx_line.noise,
         s.stack_used
     );
+}
+
+/// A joint's homing state in words: a declared pose is the operator's word, never "homed".
+fn home_state(s: flexarm_link::msg::HomeState) -> &'static str {
+    use flexarm_link::msg::HomeState;
+    match s {
+        HomeState::Unhomed => "NOT HOMED",
+        HomeState::Searching => "searching",
+        HomeState::Homed => "homed",
+        HomeState::Declared => "DECLARED by the operator (not homed)",
+    }
 }

@@ -7,7 +7,7 @@ use std::net::TcpListener;
 use std::process::{Command as Process, Output};
 use std::thread;
 
-use flexarm_link::msg::{Board, Hello, Load, Mode, Param, Refusal, Status};
+use flexarm_link::msg::{Board, Hello, HomeState, Load, Mode, Param, Refusal, Status};
 use flexarm_link::{Command, Decoder, DeviceMsg, MAX_FRAME, Reply, Request, VERSION, encode};
 
 /// A stand-in firmware on a fresh local port: answers each request with `answer`, until the
@@ -77,6 +77,8 @@ fn ours(c: &Command) -> Option<Reply> {
             rx_malformed: 0,
             rx_line: Default::default(),
             stack_used: 1700,
+            homing: [HomeState::Homed; 2],
+            homing_failed: false,
         }),
         Command::Arm => Reply::Done,
         Command::Get(_) => Reply::Value(30.0),
@@ -101,6 +103,8 @@ fn status_in(mode: Mode, link_stops: u32) -> Status {
         rx_malformed: 0,
         rx_line: Default::default(),
         stack_used: 0,
+        homing: [HomeState::Homed; 2],
+        homing_failed: false,
     }
 }
 
@@ -874,4 +878,95 @@ fn faults_without_a_fault_refuses() {
         "no fault is latched",
     );
     assert!(!dir.exists(), "nothing written");
+}
+
+/// Homing's stand-in: refuses `arm` as not homed until `Home`, answers the first two status
+/// requests after it as homing, then holding with both joints homed.
+fn homing_firmware(c: &Command) -> Option<Reply> {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static POLLS: AtomicU32 = AtomicU32::new(0);
+    Some(match c {
+        Command::Arm => Reply::Refused(Refusal::NotHomed),
+        Command::Home => {
+            POLLS.store(1, Ordering::SeqCst);
+            Reply::Done
+        }
+        Command::Status => {
+            let n = POLLS.fetch_add(1, Ordering::SeqCst);
+            let mut s = status_in(Mode::Homing, 0);
+            s.homing = [HomeState::Searching, HomeState::Unhomed];
+            if n == 0 {
+                s.mode = Mode::Disarmed;
+                s.homing = [HomeState::Unhomed; 2];
+            } else if n >= 3 {
+                s.mode = Mode::Armed;
+                s.homing = [HomeState::Homed; 2];
+            }
+            Reply::Status(s)
+        }
+        c => return ours(c),
+    })
+}
+
+/// A stand-in on which a declared pose is shown declared.
+fn declared_firmware(c: &Command) -> Option<Reply> {
+    Some(match c {
+        Command::DeclareHome { theta } if theta.iter().all(|t| t.is_finite()) => Reply::Done,
+        Command::Status => {
+            let mut s = status_in(Mode::Disarmed, 0);
+            s.homing = [HomeState::Declared; 2];
+            Reply::Status(s)
+        }
+        c => return ours(c),
+    })
+}
+
+#[test]
+fn arm_is_refused_until_homed_and_home_waits_for_the_searches() {
+    let at = |port: u16| format!("127.0.0.1:{port}");
+    let port = firmware(homing_firmware);
+    fails_with(&["--tcp", &at(port), "arm"], "a joint is not homed");
+    let o = flexarm(&["--tcp", &at(firmware(homing_firmware)), "home"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(
+        out, "home: done, holding (joint 1 homed, joint 2 homed)\n",
+        "{err}"
+    );
+    // The status names each joint's state; an unhomed one loudly.
+    let o = flexarm(&["--tcp", &at(firmware(ours)), "status"]);
+    assert!(text(&o).0.contains("homing: joint 1 homed, joint 2 homed"));
+}
+
+#[test]
+fn a_declared_pose_is_warned_about_and_shown_declared() {
+    let at = |port: u16| format!("127.0.0.1:{port}");
+    let o = flexarm(&[
+        "--tcp",
+        &at(firmware(declared_firmware)),
+        "home",
+        "--declare",
+        "2.0,-0.3",
+    ]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.starts_with("WARNING: declaring the pose without homing"),
+        "{err}"
+    );
+    assert!(
+        out.contains("(2, -0.3) rad by the operator's word")
+            && out.contains("DECLARED by the operator (not homed)"),
+        "{out}"
+    );
+    fails_with(
+        &[
+            "--tcp",
+            &at(firmware(declared_firmware)),
+            "home",
+            "--declare",
+            "1",
+        ],
+        "--declare takes two values",
+    );
 }

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use flexarm_console::client::{Client, ConsoleError};
 use flexarm_console::live::{self, KeyAction, View, key_action};
 use flexarm_console::transport::Link;
-use flexarm_link::msg::{Board, Channels, Hello, Load, Mode, Status, Telemetry};
+use flexarm_link::msg::{Board, Channels, Hello, HomeState, Load, Mode, Status, Telemetry};
 use flexarm_link::{Command, Decoder, DeviceMsg, MAX_FRAME, Reply, Request, VERSION, encode};
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
@@ -138,6 +138,8 @@ fn status(mode: Mode, fault: Option<u8>) -> Status {
         rx_malformed: 0,
         rx_line: Default::default(),
         stack_used: 0,
+        homing: [HomeState::Homed; 2],
+        homing_failed: false,
     }
 }
 

@@ -275,6 +275,19 @@ impl<T: Real> Controller<T> {
         self.reset_observer(theta);
     }
 
+    /// The encoders' frame moved by `delta` [rad] (homing, `crate::homing`): the estimate and
+    /// the previous sample move with it, the motion's estimate stays, so neither the jump
+    /// check nor the motion checks see a step that is not one. Angles that are not finite
+    /// trip [`Fault::NonFinite`].
+    pub fn shift_frame(&mut self, delta: Vector2<T>) {
+        if !all_finite([delta.x, delta.y]) {
+            self.trip(Fault::NonFinite);
+            return;
+        }
+        self.observer.shift(delta);
+        self.previous = self.previous.map(|p| p + delta);
+    }
+
     /// Restarts the observer at rest at the encoder angles `theta` [rad], undeformed (at
     /// power-up, before the loops start). The latch is not cleared; angles that are not finite
     /// trip [`Fault::NonFinite`] and leave the estimate as it was.

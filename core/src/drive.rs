@@ -7,6 +7,12 @@
 //! | `Moving` | on | the move | its end (→ `Armed`), `stop`, `disarm`, a fault |
 //! | `Stopping` | on | a controlled stop at the move limits' deceleration ([`Drive::stop`]); after a category-1 fault while holding, the hold, for as long as that deceleration needs to bring the joints' estimated speeds to rest | its end (→ `Armed`), `disarm`, a fault |
 //! | `Fault` | off (latched) | — | `clear`, when the cause is gone (→ `Disarmed`) |
+//! | `Homing` | on, at the search torque | a joint's search ([`Drive::home`], `crate::homing`) | every joint found (→ `Armed`), a failed search, `stop`, `disarm` (→ `Disarmed`), a fault |
+//!
+//! Homing (issue 33): the encoders count from the power-up pose; the drive maps their reading
+//! into the arm's frame with each joint's offset ([`Drive::arm_frame`]) before any check, and
+//! refuses `arm` and moves ([`Refused::NotHomed`]) until every joint is homed or declared
+//! ([`Drive::declare`], [`Drive::declare_zero`]).
 //!
 //! The link watchdog: once a host has spoken ([`Drive::heard`]), a move that goes on for
 //! [`Drive::link_timeout`] motor periods without hearing from it again is stopped as by
@@ -41,6 +47,7 @@ use crate::Vector2;
 use crate::control::motor::MotorController;
 use crate::controller::{Controller, MotorReport};
 use crate::fault::Fault;
+use crate::homing::{self, Homing, Search};
 use crate::kinematics::{Elbow, Planar2};
 use crate::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use crate::observer::Measurement;
@@ -61,6 +68,8 @@ pub enum Mode {
     Moving,
     /// Decelerating to rest after a stop.
     Stopping,
+    /// A homing search runs ([`Drive::home`]): amplifiers on at the search torque.
+    Homing,
     /// A fault is latched.
     Fault,
 }
@@ -84,6 +93,9 @@ pub enum Refused {
     TooFast,
     /// The waypoint list has a gap, is too long, or is not the length the move names.
     Waypoints,
+    /// A joint is neither homed nor declared (issue 33): home it ([`Drive::home`]) or declare
+    /// the pose ([`Drive::declare`]) first.
+    NotHomed,
 }
 
 /// Limits on the moves a host may command.
@@ -250,6 +262,10 @@ pub struct Drive<T> {
     /// The derated limits the last step wrote [N·m] (a different limit found in the controller
     /// at the next step was set in between).
     written: Vector2<T>,
+    /// The joints' homing: states and offsets from the encoders to the arm's frame.
+    homing: Homing<T>,
+    /// The board's homing inputs of this period ([`Drive::homing_inputs`]).
+    inputs: homing::Inputs<T>,
 }
 
 impl<T: Real> Drive<T> {
@@ -280,6 +296,262 @@ impl<T: Real> Drive<T> {
             rated: ctrl.motor.limits.tau_max,
             derated: false,
             written: ctrl.motor.limits.tau_max,
+            homing: Homing::new(homing::Config::default()),
+            inputs: homing::Inputs::default(),
+        }
+    }
+
+    /// The joints' homing (`crate::homing`): states, offsets, configuration.
+    pub fn homing(&self) -> &Homing<T> {
+        &self.homing
+    }
+
+    /// Sets the homing configuration; every joint is unhomed again. Refused while a search
+    /// runs.
+    pub fn configure_homing(&mut self, config: homing::Config<T>) -> Result<(), Refused> {
+        if self.mode == Mode::Homing {
+            return Err(Refused::Moving);
+        }
+        self.homing = Homing::new(config);
+        Ok(())
+    }
+
+    /// The board's homing inputs of this motor period (index pulses, limit switches), for the
+    /// search that runs; a board calls it before [`Self::step`] while [`Self::searching`].
+    pub fn homing_inputs(&mut self, inputs: homing::Inputs<T>) {
+        self.inputs = inputs;
+    }
+
+    /// Whether a homing search runs (the board's homing inputs are read then).
+    #[inline(always)]
+    pub fn searching(&self) -> bool {
+        self.mode == Mode::Homing
+    }
+
+    /// The encoder measurement `y` in the arm's frame: `θ = θ_enc + offset` per joint
+    /// (`crate::homing`). Every check and the law run on this.
+    #[inline(always)]
+    pub fn arm_frame(&self, y: &Measurement<T>) -> Measurement<T> {
+        Measurement {
+            theta: self.homing.to_arm(y.theta),
+            v_f: y.v_f,
+        }
+    }
+
+    /// Homes every joint, one at a time, joint 1 first (`crate::homing`): from disarmed or
+    /// holding, the amplifiers on, each joint's search at its speed and torque limit; the
+    /// drive then holds the pose it ends at, in the arm's frame ([`Mode::Armed`]). A search
+    /// that fails disarms the drive with the joint unhomed ([`Homing::failed`]). Refused while
+    /// faulted, moving or searching, and when the configuration's search is not a valid move
+    /// ([`Refused::OutOfRange`]).
+    pub fn home(&mut self, ctrl: &mut Controller<T>, now: Ticks) -> Result<(), Refused> {
+        match self.mode(ctrl) {
+            Mode::Fault => return Err(Refused::Faulted),
+            Mode::Moving | Mode::Stopping | Mode::Homing => return Err(Refused::Moving),
+            Mode::Disarmed | Mode::Armed => {}
+        }
+        let q = ctrl.estimate().0;
+        self.begin_search(ctrl, now, 0, Vector2::new(q.x, q.y))?;
+        if !ctrl.armed() {
+            ctrl.set_armed(true);
+        }
+        Ok(())
+    }
+
+    /// Starts joint `j`'s search from the pose `q` (the current frames) at `now`: the joint's
+    /// offset back to 0, the observer restarted in the new frame, a trapezoid at the search
+    /// speed over the search travel as the reference.
+    fn begin_search(
+        &mut self,
+        ctrl: &mut Controller<T>,
+        now: Ticks,
+        j: usize,
+        q: Vector2<T>,
+    ) -> Result<(), Refused> {
+        let cfg = self
+            .homing
+            .config
+            .joints
+            .get(j)
+            .copied()
+            .ok_or(Refused::OutOfRange)?;
+        let speed = cfg.speed.abs();
+        let a = if j == 0 {
+            self.limits.accel_max.x
+        } else {
+            self.limits.accel_max.y
+        };
+        let ramp = speed / a;
+        let valid = [cfg.speed, cfg.travel, cfg.torque, ramp]
+            .iter()
+            .all(|x| x.finite())
+            && cfg.travel > T::zero()
+            && cfg.torque > T::zero();
+        if !valid {
+            return Err(Refused::OutOfRange);
+        }
+        let duration = cfg.travel / speed + ramp;
+        let profile = Profile::new(duration, ramp).map_err(|_| Refused::OutOfRange)?;
+        let offset = self.homing.offset();
+        let (from, amplitude) = if j == 0 {
+            (
+                Vector2::new(q.x - offset.x, q.y),
+                Vector2::new(cfg.travel * cfg.speed.signum(), T::zero()),
+            )
+        } else {
+            (
+                Vector2::new(q.x, q.y - offset.y),
+                Vector2::new(T::zero(), cfg.travel * cfg.speed.signum()),
+            )
+        };
+        self.homing.begin(j, if j == 0 { from.x } else { from.y });
+        ctrl.shift_frame(from - q);
+        ctrl.trajectory = JointTrajectory::Trapezoid(Trapezoid {
+            start: from,
+            amplitude,
+            profile,
+        });
+        self.restart(now, T::zero(), duration);
+        self.monitor.restart();
+        self.segments = 0;
+        self.pending = None;
+        self.mode = Mode::Homing;
+        Ok(())
+    }
+
+    /// A host declares the pose now to be `theta` in the arm's frame [rad] (an explicit
+    /// command, issue 33): every joint [`homing::State::Declared`] (status shows it as
+    /// declared, not homed), the observer restarted there. Only while disarmed; refused with
+    /// [`Refused::OutOfRange`] for angles that are not finite or outside the sensors' range.
+    pub fn declare(&mut self, ctrl: &mut Controller<T>, theta: Vector2<T>) -> Result<(), Refused> {
+        match self.mode(ctrl) {
+            Mode::Fault => return Err(Refused::Faulted),
+            Mode::Disarmed => {}
+            _ => return Err(Refused::Moving),
+        }
+        let l = ctrl.sensor_limits();
+        let inside = theta.x >= l.theta_min.x
+            && theta.x <= l.theta_max.x
+            && theta.y >= l.theta_min.y
+            && theta.y <= l.theta_max.y;
+        let q = ctrl.estimate().0;
+        let (q, old) = (Vector2::new(q.x, q.y), self.homing.offset());
+        if !inside || !self.homing.declare(q - old, theta) {
+            return Err(Refused::OutOfRange);
+        }
+        ctrl.shift_frame(self.homing.offset() - old);
+        Ok(())
+    }
+
+    /// A host declares the encoders' frame to be the arm's (an explicit command, issue 33):
+    /// the encoders counted from the arm's zero (a simulated plant whose encoders read its own
+    /// angles; an arm known to have been at its zero at power-up). Every joint
+    /// [`homing::State::Declared`] with offset 0. Only while disarmed.
+    pub fn declare_zero(&mut self, ctrl: &mut Controller<T>) -> Result<(), Refused> {
+        match self.mode(ctrl) {
+            Mode::Fault => return Err(Refused::Faulted),
+            Mode::Disarmed => {}
+            _ => return Err(Refused::Moving),
+        }
+        let offset = self.homing.offset();
+        if offset != Vector2::zeros() {
+            ctrl.shift_frame(-offset);
+        }
+        self.homing.declare(Vector2::zeros(), Vector2::zeros());
+        Ok(())
+    }
+
+    /// One period of the homing search (after the motor step at the search torque): the
+    /// search's speed bound in place of the motion checks, the board's inputs, and what the
+    /// search found.
+    #[inline(never)]
+    fn search(
+        &mut self,
+        ctrl: &mut Controller<T>,
+        now: Ticks,
+        y: Option<&Measurement<T>>,
+        report: &mut MotorReport<T>,
+    ) {
+        crate::hint::cold();
+        let inputs = core::mem::take(&mut self.inputs);
+        let (Some(j), None) = (self.homing.searching(), ctrl.fault()) else {
+            self.homing.abort();
+            self.mode = Mode::Disarmed;
+            return;
+        };
+        let (Some(y), Some(_)) = (y, report.law) else {
+            return;
+        };
+        // A search never moves a joint faster than twice its speed plus 0.1 rad/s: a reversed
+        // encoder (positive feedback) or a slipping one is cut here, within the search torque
+        // (`docs/safety.md`). The motion checks are off meanwhile: the joint stalls against its
+        // stop by design, and its frame is not the arm's yet.
+        let speed = self
+            .homing
+            .config
+            .joints
+            .get(j)
+            .map_or(T::zero(), |c| c.speed.abs());
+        let bound = speed + speed + T::c(0.1);
+        let qd = ctrl.estimate().1;
+        if !(qd.x.abs() <= bound && qd.y.abs() <= bound) {
+            ctrl.trip(Fault::Overspeed);
+            report.command = Command::safe();
+            self.homing.abort();
+            self.mode = Mode::Disarmed;
+            return;
+        }
+        let (theta_j, tau_j) = if j == 0 {
+            (y.theta.x, report.command.tau.x)
+        } else {
+            (y.theta.y, report.command.tau.y)
+        };
+        let mut found = self
+            .homing
+            .search(j, theta_j, tau_j, &inputs, ctrl.motor_period);
+        if found == Search::Running && self.time(now) >= self.end {
+            self.homing.fail();
+            found = Search::Failed;
+        }
+        match found {
+            Search::Running => {}
+            Search::Found(_) => {
+                // The joint's frame is the arm's from now on: the estimate moves with it (the
+                // joint may still move: an index is passed at the search speed).
+                let before = self.homing_offset_before(j);
+                let theta = self.homing.to_arm(y.theta - before);
+                ctrl.shift_frame(self.homing.offset() - before);
+                self.monitor.restart();
+                if j == 0 && self.begin_search(ctrl, now, 1, theta).is_ok() {
+                    return;
+                }
+                ctrl.trajectory = JointTrajectory::Hold(theta);
+                self.restart(now, T::zero(), T::zero());
+                self.mode = if self.homing.known() {
+                    Mode::Armed
+                } else {
+                    // Joint 2's search could not start: not homed, not armed.
+                    report.command = Command::safe();
+                    ctrl.set_armed(false);
+                    Mode::Disarmed
+                };
+            }
+            Search::Failed => {
+                report.command = Command::safe();
+                ctrl.set_armed(false);
+                self.mode = Mode::Disarmed;
+            }
+        }
+    }
+
+    /// The offset joint `j`'s measurement had during its search (0 for `j`, the others'
+    /// offsets as they are), to take `y` back to the encoders' frame.
+    fn homing_offset_before(&self, j: usize) -> Vector2<T> {
+        let o = self.homing.offset();
+        if j == 0 {
+            Vector2::new(T::zero(), o.y)
+        } else {
+            Vector2::new(o.x, T::zero())
         }
     }
 
@@ -316,12 +588,23 @@ impl<T: Real> Drive<T> {
     ) -> MotorReport<T> {
         self.advance(ctrl, now);
         self.derate(ctrl);
+        // The encoders' reading in the arm's frame (`crate::homing`).
+        let y = y.map(|y| self.arm_frame(y));
+        let y = y.as_ref();
+        let homing = self.mode == Mode::Homing;
+        let rated = ctrl.motor.limits.tau_max;
+        if homing {
+            ctrl.motor.limits.tau_max = self.search_torque(rated);
+        }
         let mut report = if ctrl.armed() {
             ctrl.motor_step(self.time(now), y)
         } else {
             ctrl.idle_step(y)
         };
-        if let (Some(y), Some(law), true) = (y, report.law, ctrl.armed()) {
+        if homing {
+            ctrl.motor.limits.tau_max = rated;
+            self.search(ctrl, now, y, &mut report);
+        } else if let (Some(y), Some(law), true) = (y, report.law, ctrl.armed()) {
             // θ_d = θ̂ − (θ̂ − θ_d) with the θ̂ the law ran on: the estimate after the step is
             // one period ahead, and with it θ_d would be the next period's reference, `θ̇ T`
             // ahead (0.018 rad at the circle's 1.84 rad/s and 100 Hz, which the checks took
@@ -384,6 +667,13 @@ impl<T: Real> Drive<T> {
         self.restart(now, T::zero(), end);
         self.segments = 0;
         self.mode = Mode::Stopping;
+    }
+
+    /// The torque limits of a search: each joint's search torque, or `rated` where lower.
+    #[inline(never)]
+    fn search_torque(&self, rated: Vector2<T>) -> Vector2<T> {
+        let [a, b] = self.homing.config.joints;
+        Vector2::new(a.torque.min(rated.x), b.torque.min(rated.y))
     }
 
     /// The motors' heat lowers the torque limit (`crate::motion`): the controller saturates at
@@ -475,7 +765,7 @@ impl<T: Real> Drive<T> {
         let silent = now.0.wrapping_sub(heard.0) > u64::from(self.link_timeout);
         if self.link_timeout > 0
             && silent
-            && self.mode == Mode::Moving
+            && matches!(self.mode, Mode::Moving | Mode::Homing)
             && self.stop(ctrl, now).is_ok()
         {
             self.link_stops = self.link_stops.saturating_add(1);
@@ -495,9 +785,13 @@ impl<T: Real> Drive<T> {
     }
 
     /// Enables the amplifiers, holding the estimated pose.
+    /// Refused until every joint is homed or declared ([`Refused::NotHomed`]).
     pub fn arm(&mut self, ctrl: &mut Controller<T>, now: Ticks) -> Result<(), Refused> {
         if ctrl.fault().is_some() {
             return Err(Refused::Faulted);
+        }
+        if !self.homing.known() {
+            return Err(Refused::NotHomed);
         }
         if self.mode == Mode::Disarmed {
             let q = ctrl.estimate().0;
@@ -511,8 +805,10 @@ impl<T: Real> Drive<T> {
     }
 
     /// Disables the amplifiers now (the safe command); always accepted.
+    /// A homing search that runs ends with its joint unhomed.
     pub fn disarm(&mut self, ctrl: &mut Controller<T>) {
         ctrl.set_armed(false);
+        self.homing.abort();
         self.pending = None;
         self.mode = Mode::Disarmed;
     }
@@ -535,12 +831,13 @@ impl<T: Real> Drive<T> {
         self.begin(ctrl, now, &plan)
     }
 
-    /// Whether a move may start: armed and holding.
+    /// Whether a move may start: armed and holding, every joint homed or declared.
     fn ready(&self, ctrl: &Controller<T>) -> Result<(), Refused> {
         match self.mode(ctrl) {
             Mode::Fault => Err(Refused::Faulted),
             Mode::Disarmed => Err(Refused::NotArmed),
-            Mode::Moving | Mode::Stopping => Err(Refused::Moving),
+            Mode::Moving | Mode::Stopping | Mode::Homing => Err(Refused::Moving),
+            Mode::Armed if !self.homing.known() => Err(Refused::NotHomed),
             Mode::Armed => Ok(()),
         }
     }
@@ -582,7 +879,7 @@ impl<T: Real> Drive<T> {
         match self.mode(ctrl) {
             Mode::Fault => return Err(Refused::Faulted),
             Mode::Disarmed => return Err(Refused::NotArmed),
-            Mode::Stopping => return Err(Refused::Moving),
+            Mode::Stopping | Mode::Homing => return Err(Refused::Moving),
             Mode::Armed | Mode::Moving => {}
         }
         ctrl.trajectory = trajectory;
@@ -917,6 +1214,12 @@ impl<T: Real> Drive<T> {
             Mode::Fault => Err(Refused::Faulted),
             Mode::Disarmed => Err(Refused::NotArmed),
             Mode::Armed | Mode::Stopping => Ok(()),
+            // A search stopped: its joint unhomed, the amplifiers off (the search is slow and
+            // at a low torque: it comes to rest at once).
+            Mode::Homing => {
+                self.disarm(ctrl);
+                Ok(())
+            }
             Mode::Moving => {
                 let r = ctrl.trajectory.sample(self.time(now));
                 let a = self.limits.accel_max;
@@ -967,7 +1270,10 @@ impl<T: Real> Drive<T> {
         amplifier_fault: bool,
     ) -> Result<Fault, Refused> {
         let fault = ctrl.fault().ok_or(Refused::CauseActive)?;
-        let measured = y.filter(|y| ctrl.sensor_limits().check(y, None, T::one()).is_ok());
+        let y = y.map(|y| self.arm_frame(y));
+        let measured = y
+            .as_ref()
+            .filter(|y| ctrl.sensor_limits().check(y, None, T::one()).is_ok());
         let gone = match fault {
             Fault::NonFinite | Fault::OutOfRange | Fault::EncoderJump | Fault::Stale => {
                 measured.is_some()
@@ -991,7 +1297,16 @@ impl<T: Real> Drive<T> {
         let Some(y) = measured.filter(|_| gone) else {
             return Err(Refused::CauseActive);
         };
-        ctrl.reset(y.theta);
+        // A cause that may have lost encoder counts loses the homing too (issue 33).
+        let mut theta = y.theta;
+        if matches!(
+            fault,
+            Fault::NonFinite | Fault::EncoderJump | Fault::Stale | Fault::FrozenEncoder
+        ) {
+            theta -= self.homing.offset();
+            self.homing.forget();
+        }
+        ctrl.reset(theta);
         self.disarm(ctrl);
         Ok(fault)
     }

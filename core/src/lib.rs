@@ -35,6 +35,7 @@ pub mod drive;
 pub mod fastmath;
 pub mod fault;
 mod hint;
+pub mod homing;
 pub mod indices;
 pub mod kinematics;
 pub mod limits;

@@ -142,6 +142,13 @@ impl<T: Real> Observer<T> {
         }
     }
 
+    /// Moves the joint angles' estimate by `delta` [rad], the speeds and the modes as they
+    /// are: the encoders' frame changed (homing, `crate::homing`), not the motion.
+    pub fn shift(&mut self, delta: Vector2<T>) {
+        self.q.x += delta.x;
+        self.q.y += delta.y;
+    }
+
     /// Restarts at rest at `theta` [rad] (after a fault reset).
     pub fn reset(&mut self, theta: Vector2<T>) {
         *self = Self::new(self.gain_t.transpose(), self.c_f, self.period, theta);

@@ -12,6 +12,7 @@
 use flexarm_core::control::motor::MotorLaw;
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::drive::MoveLimits;
+use flexarm_core::homing::{Config as HomingConfig, JointHoming, Method};
 use flexarm_core::motion::{MotionLimits, Thermal};
 use flexarm_core::params::{ArmParams, Gains, Limits, ModalData};
 use flexarm_core::{Vector2, Vector4};
@@ -145,9 +146,15 @@ pub const HARDWARE: BoardConfig = BoardConfig {
     link_timeout_s: 1,
     amplifier_settle: 10,
     amplifier_debounce: 3,
+    homing: HomingConfig {
+        joints: [JointHoming { method: Method::Index, angle: 0e0, speed: 2e-1, torque: 1e0, travel: 6.5e0 }, JointHoming { method: Method::Index, angle: 0e0, speed: 2e-1, torque: 1e0, travel: 6.5e0 }],
+        stall_travel: 2e-3,
+        stall_time: 2e-1,
+        stall_share: 9e-1,
+    },
 };
 /// `BoardConfig::hash` of [`HARDWARE`], the handshake's `params_hash`.
-pub const HARDWARE_HASH: u32 = 0x7506f2e8;
+pub const HARDWARE_HASH: u32 = 0xe4342493;
 
 /// Everything the QEMU board boots with (`flexarm_machine::BoardConfig::for_board` on this
 /// model): its hash is [`QEMU_HASH`].
@@ -211,6 +218,12 @@ pub const QEMU: BoardConfig = BoardConfig {
     link_timeout_s: 5,
     amplifier_settle: 1,
     amplifier_debounce: 3,
+    homing: HomingConfig {
+        joints: [JointHoming { method: Method::Index, angle: 0e0, speed: 2e-1, torque: 1e0, travel: 6.5e0 }, JointHoming { method: Method::Index, angle: 0e0, speed: 2e-1, torque: 1e0, travel: 6.5e0 }],
+        stall_travel: 2e-3,
+        stall_time: 2e-1,
+        stall_share: 9e-1,
+    },
 };
 /// `BoardConfig::hash` of [`QEMU`], the handshake's `params_hash`.
-pub const QEMU_HASH: u32 = 0x3177e9f8;
+pub const QEMU_HASH: u32 = 0x5b0e89e3;

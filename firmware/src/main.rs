@@ -231,11 +231,22 @@ mod app {
         // The simulated arm plays the physical arm: the paper's, with the firmware's patch on
         // it, whatever model the controller runs (the paper's by default, or one identified on
         // this arm, docs/identification.md).
-        let board = BoardImpl::new(flexarm_machine::simulated::SimulatedArm::paper(
-            config::qemu_patch(),
-            flexarm_core::Vector4::zeros(),
-            cfg.piezo_period(),
-        ));
+        let board = BoardImpl::new({
+            #[allow(unused_mut)]
+            let mut sim = flexarm_machine::simulated::SimulatedArm::paper(
+                config::qemu_patch(),
+                flexarm_core::Vector4::zeros(),
+                cfg.piezo_period(),
+            );
+            // The link session's arm has index marks, which its console session homes on
+            // (scripts/qemu-link, issue 33): at 0.5 and 2.0 rad, ahead of the pose the
+            // session leaves the arm at, (0, π/2).
+            #[cfg(feature = "link-session")]
+            {
+                sim.index = [0.5, 2.0];
+            }
+            sim
+        });
         #[cfg(feature = "hw")]
         let board = BoardImpl::new(
             dp.GPIOA, dp.GPIOB, dp.GPIOC, dp.TIM1, dp.TIM8, dp.TIM12, dp.ADC1, dp.DAC, &dp.RCC,
@@ -310,6 +321,10 @@ mod app {
                 heat.x
             );
         }
+        // The QEMU board's simulated arm: its encoders read the plant's own angles, the arm's
+        // frame, declared (issue 33; status shows it declared, not homed).
+        #[cfg(feature = "qemu")]
+        let _ = drive.declare_zero(&mut ctrl);
         if config::BOOT_MOVE && ctrl.fault().is_none() {
             let half_pi = core::f32::consts::FRAC_PI_2;
             let boot = MoveRequest::Trapezoid {

@@ -299,6 +299,7 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
          use flexarm_core::control::motor::MotorLaw;\n\
          use flexarm_core::control::piezo::{{PiezoGains, PiezoPatch}};\n\
          use flexarm_core::drive::MoveLimits;\n\
+         use flexarm_core::homing::{{Config as HomingConfig, JointHoming, Method}};\n\
          use flexarm_core::motion::{{MotionLimits, Thermal}};\n\
          use flexarm_core::params::{{ArmParams, Gains, Limits, ModalData}};\n\
          use flexarm_core::{{Vector2, Vector4}};\n\
@@ -488,6 +489,12 @@ fn config_literal(c: &BoardConfig, gain: &str) -> String {
     link_timeout_s: {link_timeout_s},
     amplifier_settle: {amplifier_settle},
     amplifier_debounce: {amplifier_debounce},
+    homing: HomingConfig {{
+        joints: [{joint0}, {joint1}],
+        stall_travel: {stall_travel},
+        stall_time: {stall_time},
+        stall_share: {stall_share},
+    }},
 }}",
         board = c.board,
         law = c.law,
@@ -532,6 +539,24 @@ fn config_literal(c: &BoardConfig, gain: &str) -> String {
         link_timeout_s = c.link_timeout_s,
         amplifier_settle = c.amplifier_settle,
         amplifier_debounce = c.amplifier_debounce,
+        joint0 = joint(&c.homing.joints[0]),
+        joint1 = joint(&c.homing.joints[1]),
+        stall_travel = f(c.homing.stall_travel),
+        stall_time = f(c.homing.stall_time),
+        stall_share = f(c.homing.stall_share),
+    )
+}
+
+/// A joint's homing configuration as a Rust expression.
+fn joint(j: &flexarm_core::homing::JointHoming<f32>) -> String {
+    let f = |x: f32| format!("{x:e}");
+    format!(
+        "JointHoming {{ method: Method::{:?}, angle: {}, speed: {}, torque: {}, travel: {} }}",
+        j.method,
+        f(j.angle),
+        f(j.speed),
+        f(j.torque),
+        f(j.travel)
     )
 }
 

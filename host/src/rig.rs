@@ -140,6 +140,24 @@ impl<B: Board> Rig<B> {
         self.drive.arm(&mut self.control.ctrl, now)
     }
 
+    /// Homes every joint (as the link's `Home`, `Drive::home`).
+    pub fn home(&mut self) -> Result<(), Refused> {
+        let now = self.drive.next_tick();
+        self.drive.home(&mut self.control.ctrl, now)
+    }
+
+    /// Declares the pose now to be `theta` [rad] in the arm's frame (as the link's
+    /// `DeclareHome`, `Drive::declare`).
+    pub fn declare(&mut self, theta: Vector2<f32>) -> Result<(), Refused> {
+        self.drive.declare(&mut self.control.ctrl, theta)
+    }
+
+    /// Declares the encoders' reading now to be the arm's pose: a host's run whose board reads
+    /// the plant's own angles (a simulated plant, whose frame is the arm's), so the offset is 0.
+    pub fn declare_encoders(&mut self) -> Result<(), Refused> {
+        self.drive.declare_zero(&mut self.control.ctrl)
+    }
+
     /// Starts a move after validating it (as the link's moves).
     pub fn start(
         &mut self,

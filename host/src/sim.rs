@@ -543,7 +543,8 @@ impl SimConfig {
 
     /// The host's rig of this run's board on its plant, at rest at `theta` [rad], booted
     /// ([`Rig::new`]), with the piezo loop off when [`Self::piezo`] is `None` (its gain set to
-    /// 0 as the link's `set kc 0` does), disarmed.
+    /// 0 as the link's `set kc 0` does), disarmed, the encoders' frame declared the arm's
+    /// (`Drive::declare_zero`).
     pub fn run_board(&self, theta: Vector2<f64>) -> Result<Rig<PlantBoard>, SimError> {
         let bc = self.board_config()?;
         let (_, piezo_div) = self.rates.divisors()?;
@@ -556,6 +557,14 @@ impl SimConfig {
         let mut rig = Rig::new(bc, board, Ticks(0));
         if let Some(fault) = rig.control.ctrl.fault() {
             return Err(SimError::Fault { fault, t: 0.0 });
+        }
+        // The plant's encoders read its own angles: the arm's frame, declared (issue 33: a
+        // host's explicit word, which a study can give and a board's first power-on cannot).
+        if let Err(why) = rig.declare_encoders() {
+            return Err(SimError::Input {
+                key: "homing",
+                msg: format!("the drive refused the declared pose: {why:?}"),
+            });
         }
         if self.piezo.is_none() && self.machine.is_none() {
             let r = rig.answer(flexarm_link::Command::Set(Param::Kc, 0.0));

@@ -123,7 +123,12 @@ impl Run {
             t: 0.0,
         };
         Self {
-            rig: Rig::new(cfg.board_config().unwrap(), board, Ticks(0)),
+            rig: {
+                let mut rig = Rig::new(cfg.board_config().unwrap(), board, Ticks(0));
+                // The plant's encoders read its own angles: the arm's frame, declared.
+                rig.declare_encoders().unwrap();
+                rig
+            },
             fault_at: None,
             peak_speed: 0.0,
         }

@@ -76,6 +76,17 @@ pub enum Command {
     /// Test builds only (the QEMU `link-session` firmware): assert (`true`) or release the
     /// simulated amplifiers' fault line. Every other build refuses it as `Unsupported`.
     TestAmplifierFault(bool),
+    /// Home every joint (issue 33): each joint's search at a low torque limit, one at a time;
+    /// the drive then holds, armed, in the arm's frame. `arm` and moves are refused
+    /// ([`Refusal::NotHomed`]) until every joint is homed or declared.
+    Home,
+    /// Declare the pose now to be `theta` [rad] in the arm's frame without homing (disarmed
+    /// only): the host's word, not a measurement; status shows the joints as
+    /// [`HomeState::Declared`], never as homed.
+    DeclareHome {
+        /// θ1, θ2 of the pose now [rad].
+        theta: [f32; 2],
+    },
 }
 
 /// A move, in the core's joint frames.
@@ -339,6 +350,8 @@ pub enum Refusal {
     NoRecord,
     /// This firmware does not implement the command yet.
     Unsupported,
+    /// A joint is neither homed nor declared: `Home` (or `DeclareHome`) first.
+    NotHomed,
 }
 
 /// The handshake's answer.
@@ -381,6 +394,21 @@ pub enum Mode {
     Stopping,
     /// In the safe state with a latched fault.
     Fault,
+    /// A homing search runs (amplifiers on at the search torque).
+    Homing,
+}
+
+/// A joint's homing state (`flexarm_core::homing::State`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum HomeState {
+    /// The encoder counts from the power-up pose: not known in the arm's frame.
+    Unhomed,
+    /// Its search runs.
+    Searching,
+    /// Its reference was found.
+    Homed,
+    /// A host declared the pose (`DeclareHome`): trusted, not measured.
+    Declared,
 }
 
 /// One task's load.
@@ -434,6 +462,10 @@ pub struct Status {
     pub rx_line: LineErrors,
     /// The stack's high-water mark since boot [bytes].
     pub stack_used: u32,
+    /// Each joint's homing state.
+    pub homing: [HomeState; 2],
+    /// The last homing search failed (travelled its limit without finding its reference).
+    pub homing_failed: bool,
 }
 
 /// One telemetry frame.

@@ -74,6 +74,8 @@ fn command() -> impl Strategy<Value = Command> {
         any::<u16>().prop_map(|from| Command::Faults { from }),
         Just(Command::Ping),
         any::<bool>().prop_map(Command::TestAmplifierFault),
+        Just(Command::Home),
+        (-4.0f32..4.0, -4.0f32..4.0).prop_map(|(a, b)| Command::DeclareHome { theta: [a, b] }),
     ]
 }
 
@@ -101,7 +103,8 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
         Just(Mode::Armed),
         Just(Mode::Moving),
         Just(Mode::Stopping),
-        Just(Mode::Fault)
+        Just(Mode::Fault),
+        Just(Mode::Homing)
     ];
     let status = (
         mode,
@@ -127,6 +130,8 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
                     rx_malformed: 0,
                     rx_line: Default::default(),
                     stack_used: stack,
+                    homing: [HomeState::Declared; 2],
+                    homing_failed: false,
                 })
             },
         );
@@ -300,6 +305,8 @@ fn the_largest_of_every_message_fits_a_frame() {
                     noise: u32::MAX,
                 },
                 stack_used: u32::MAX,
+                homing: [HomeState::Declared; 2],
+                homing_failed: false,
             }),
         },
     ];
@@ -341,6 +348,8 @@ fn a_message_by_reference_is_the_same_frame() {
         rx_malformed: 0,
         rx_line: Default::default(),
         stack_used: 1800,
+        homing: [HomeState::Declared; 2],
+        homing_failed: false,
     });
     let t = Telemetry {
         seq: 9,

@@ -7,6 +7,7 @@
 //! piezo command in V (at the amplifier's output).
 
 use flexarm_core::Vector2;
+use flexarm_core::homing::Inputs;
 
 /// The I/O of the arm.
 pub trait Board {
@@ -27,6 +28,12 @@ pub trait Board {
     fn set_enable(&mut self, on: bool);
     /// `true` while an amplifier reports a fault.
     fn amplifier_fault(&mut self) -> bool;
+    /// The homing inputs (issue 33, `flexarm_core::homing`): per joint, the encoder reading
+    /// [rad] latched at an index pulse (or a limit switch's edge) since the last call, NaN
+    /// when none came. A board without them returns none.
+    fn homing_inputs(&mut self) -> Inputs<f32> {
+        Inputs::default()
+    }
     /// Called once per piezo period after the outputs are written: a simulated board advances
     /// its plant here; a real board does nothing.
     fn tick(&mut self) {}

@@ -13,6 +13,7 @@ use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
 use flexarm_core::controller::Controller;
 use flexarm_core::drive::{Drive, MoveLimits};
+use flexarm_core::homing;
 use flexarm_core::model::Model;
 use flexarm_core::motion::MotionLimits;
 use flexarm_core::observer::{Observer, film_map};
@@ -69,6 +70,9 @@ pub struct BoardConfig {
     pub amplifier_settle: u32,
     /// Consecutive motor periods the fault line must stay asserted.
     pub amplifier_debounce: u32,
+    /// How each joint homes (issue 33, `flexarm_core::homing`): its method, its reference's
+    /// angle in the arm's frame, its search's speed, torque limit and travel.
+    pub homing: homing::Config<f32>,
 }
 
 /// The hardware board's piezo output: what the DAC's output buffer can reach (0.2 V to
@@ -143,6 +147,7 @@ impl BoardConfig {
             link_timeout_s,
             amplifier_settle: motor_hz / 100,
             amplifier_debounce: 3,
+            homing: homing::Config::default(),
         }
     }
 
@@ -201,6 +206,8 @@ impl BoardConfig {
         let mut drive = Drive::new(ctrl, motor_hz, now, self.moves);
         drive.link_timeout = self.link_timeout_s * motor_hz;
         drive.motion = self.motion;
+        // A search not yet running: the configuration is always taken.
+        let _ = drive.configure_homing(self.homing);
         drive
     }
 
@@ -306,6 +313,16 @@ impl BoardConfig {
             self.amplifier_debounce,
         ] {
             f(w);
+        }
+        let h = &self.homing;
+        for j in &h.joints {
+            f(j.method as u32);
+            for v in [j.angle, j.speed, j.torque, j.travel] {
+                f(v.to_bits());
+            }
+        }
+        for v in [h.stall_travel, h.stall_time, h.stall_share] {
+            f(v.to_bits());
         }
     }
 

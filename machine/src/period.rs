@@ -91,10 +91,13 @@ pub fn piezo_out(b: &mut impl Board, v_a: f32) {
 /// What the motor loop reads from the board.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sensed {
-    /// Encoder angles [rad] and the film voltage [V].
+    /// Encoder angles [rad] (the encoders' own frame: the drive maps them to the arm's,
+    /// `flexarm_core::homing`) and the film voltage [V].
     pub y: Measurement<f32>,
     /// The amplifiers' fault line.
     pub amplifier_fault: bool,
+    /// The homing inputs: index pulses, limit switches (`flexarm_core::homing`).
+    pub homing: flexarm_core::homing::Inputs<f32>,
 }
 
 /// The motor loop's reading of the board.
@@ -106,6 +109,7 @@ pub fn sense(b: &mut impl Board) -> Sensed {
             v_f: b.latest_film_voltage(),
         },
         amplifier_fault: b.amplifier_fault(),
+        homing: b.homing_inputs(),
     }
 }
 
@@ -130,7 +134,7 @@ pub struct MotorLoop {
 pub struct Period {
     /// Its tick.
     pub tick: Ticks,
-    /// The measurement it ran on.
+    /// The measurement it ran on, in the arm's frame (`Drive::arm_frame`).
     pub y: Measurement<f32>,
     /// What goes to the amplifiers.
     pub command: Command<f32>,
@@ -222,6 +226,9 @@ pub fn motor_step(m: &mut MotorLoop, c: &mut Control, d: &mut Drive<f32>, s: &Se
     if let Err(f) = m.amplifier.update(m.enabled, s.amplifier_fault) {
         c.ctrl.trip(f);
     }
+    if d.searching() {
+        d.homing_inputs(s.homing);
+    }
     let report = d.step(&mut c.ctrl, tick, Some(&s.y));
     // The piezo bias lives while the drive holds, not a period longer.
     if d.mode(&c.ctrl) != Mode::Armed {
@@ -230,7 +237,7 @@ pub fn motor_step(m: &mut MotorLoop, c: &mut Control, d: &mut Drive<f32>, s: &Se
     m.enabled = report.command.enable;
     Period {
         tick,
-        y: s.y,
+        y: d.arm_frame(&s.y),
         command: report.command,
         error: report.law.map_or(Vector2::zeros(), |l| l.error),
         q: c.ctrl.step_estimate(),

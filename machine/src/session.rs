@@ -19,7 +19,7 @@ use flexarm_core::drive::{self, Drive, MoveRequest, Refused, Waypoint};
 use flexarm_core::observer::Measurement;
 use flexarm_core::tuning::{Tunable, TuneError, Tuning};
 use flexarm_link::msg::{
-    Board, Channels, Command, FaultPage, Hello, Load, MAX_CHANNELS, Mode, Move, Param,
+    Board, Channels, Command, FaultPage, Hello, HomeState, Load, MAX_CHANNELS, Mode, Move, Param,
     RecordedSample, Refusal, Reply, SAMPLES_PER_PAGE, Status, Telemetry,
 };
 use flexarm_link::{FrameError, Request, VERSION};
@@ -236,9 +236,15 @@ impl Session {
                 rx_malformed: self.malformed,
                 rx_line: io.rx_line,
                 stack_used: io.stack_used,
+                homing: drive.homing().states().map(home_state),
+                homing_failed: drive.homing().failed(),
             }),
             Command::Ping => Reply::Done,
             Command::Arm => done(drive.arm(ctrl, now)),
+            Command::Home => done(drive.home(ctrl, now)),
+            Command::DeclareHome { theta } => {
+                done(drive.declare(ctrl, Vector2::new(theta[0], theta[1])))
+            }
             Command::Disarm | Command::Estop => {
                 drive.disarm(ctrl);
                 Reply::Done
@@ -309,7 +315,12 @@ impl Session {
             Command::Set(p, v) => {
                 let mode = drive.mode(ctrl);
                 let ((min, max), while_moving) = rule(p);
-                if !while_moving && matches!(mode, drive::Mode::Moving | drive::Mode::Stopping) {
+                if !while_moving
+                    && matches!(
+                        mode,
+                        drive::Mode::Moving | drive::Mode::Stopping | drive::Mode::Homing
+                    )
+                {
                     return Reply::Refused(Refusal::Moving);
                 }
                 // Written so that NaN is refused too.
@@ -487,6 +498,18 @@ pub fn mode(m: drive::Mode) -> Mode {
         drive::Mode::Moving => Mode::Moving,
         drive::Mode::Stopping => Mode::Stopping,
         drive::Mode::Fault => Mode::Fault,
+        drive::Mode::Homing => Mode::Homing,
+    }
+}
+
+/// The link's homing state of a joint's.
+pub fn home_state(s: flexarm_core::homing::State) -> HomeState {
+    use flexarm_core::homing::State;
+    match s {
+        State::Unhomed => HomeState::Unhomed,
+        State::Searching => HomeState::Searching,
+        State::Homed => HomeState::Homed,
+        State::Declared => HomeState::Declared,
     }
 }
 
@@ -501,6 +524,7 @@ pub fn refusal(r: Refused) -> Refusal {
         Refused::Unreachable => Refusal::Unreachable,
         Refused::TooFast => Refusal::TooFast,
         Refused::Waypoints => Refusal::Waypoints,
+        Refused::NotHomed => Refusal::NotHomed,
     }
 }
 

@@ -7,6 +7,7 @@
 //! Units SI; the plant's state in the core's coordinates `q = (θ1, θ2, δ1, δ2)`.
 
 use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_core::homing::Inputs;
 use flexarm_core::model::Model;
 use flexarm_core::params::ArmParams;
 use flexarm_core::simarm::{SensorModel, SimArm};
@@ -26,6 +27,20 @@ pub struct SimulatedArm {
     pub dt: f32,
     /// Set when the plant left its domain (the state then stays where it was).
     pub diverged: bool,
+    /// The plant's joint angles at which the encoders count 0 [rad]: the pose at power-up on a
+    /// real arm (issue 33). 0: the encoders read the plant's angles (a pose declared at boot).
+    pub zero: [f32; 2],
+    /// Rigid end stops per joint, at the plant's angles [rad] (±∞: none): a joint that reaches
+    /// one stops there, its speed into the stop zeroed.
+    pub stop_min: [f32; 2],
+    /// See [`Self::stop_min`].
+    pub stop_max: [f32; 2],
+    /// The encoders' index marks, at the plant's angles [rad] (∞: none): crossing one latches
+    /// the encoder's count ([`Board::homing_inputs`]).
+    pub index: [f32; 2],
+    /// The counts latched at index pulses since the last [`Board::homing_inputs`] [rad]; NaN:
+    /// none.
+    latched: [f32; 2],
 }
 
 impl SimulatedArm {
@@ -35,6 +50,64 @@ impl SimulatedArm {
             arm,
             dt,
             diverged: false,
+            zero: [0.0; 2],
+            stop_min: [f32::NEG_INFINITY; 2],
+            stop_max: [f32::INFINITY; 2],
+            index: [f32::INFINITY; 2],
+            latched: [f32::NAN; 2],
+        }
+    }
+
+    /// The encoders' reading of the plant angle `q` of a joint [rad]: whole counts from
+    /// [`Self::zero`] (`SimArm::encoders` when the zero is 0).
+    #[inline]
+    fn count(&self, q: f32, zero: f32) -> f32 {
+        let lsb = core::f32::consts::TAU / self.arm.sensors.counts_per_rev;
+        nalgebra::ComplexField::floor((q - zero) / lsb) * lsb
+    }
+
+    /// The end stops and the index marks after a plant step from the joint angles `before`.
+    #[inline(never)]
+    fn stops_and_marks(&mut self, before: [f32; 2]) {
+        let x = &mut self.arm.x;
+        for j in 0..2 {
+            let (lo, hi) = (
+                self.stop_min.get(j).copied().unwrap_or(f32::NEG_INFINITY),
+                self.stop_max.get(j).copied().unwrap_or(f32::INFINITY),
+            );
+            let (Some(q), Some(qd)) = (x.q.get(j).copied(), x.qd.get(j).copied()) else {
+                continue;
+            };
+            let (q, qd) = if q > hi {
+                (hi, qd.min(0.0))
+            } else if q < lo {
+                (lo, qd.max(0.0))
+            } else {
+                continue;
+            };
+            if let Some(a) = x.q.get_mut(j) {
+                *a = q;
+            }
+            if let Some(v) = x.qd.get_mut(j) {
+                *v = qd;
+            }
+        }
+        let now = [self.arm.x.q.x, self.arm.x.q.y];
+        for j in 0..2 {
+            let (Some(&mark), Some(&a), Some(&b), Some(&zero)) = (
+                self.index.get(j),
+                before.get(j),
+                now.get(j),
+                self.zero.get(j),
+            ) else {
+                continue;
+            };
+            if (a < mark) != (b < mark) {
+                let count = self.count(mark, zero);
+                if let Some(l) = self.latched.get_mut(j) {
+                    *l = count;
+                }
+            }
         }
     }
 
@@ -53,9 +126,11 @@ impl SimulatedArm {
     /// frictionless joints.
     #[inline]
     pub fn step(&mut self) {
+        let before = [self.arm.x.q.x, self.arm.x.q.y];
         if !self.arm.step(self.dt) {
             self.diverged = true;
         }
+        self.stops_and_marks(before);
         if !self.arm.enabled() {
             let keep = 1.0 - self.dt / BRAKE_TAU;
             self.arm.x.qd.x *= keep;
@@ -66,7 +141,13 @@ impl SimulatedArm {
 
 impl Board for SimulatedArm {
     fn encoders(&mut self) -> Vector2<f32> {
-        self.arm.encoders()
+        let q = self.arm.x.q;
+        Vector2::new(self.count(q.x, self.zero[0]), self.count(q.y, self.zero[1]))
+    }
+    fn homing_inputs(&mut self) -> Inputs<f32> {
+        Inputs {
+            latched: core::mem::replace(&mut self.latched, [f32::NAN; 2]),
+        }
     }
     fn film_voltage(&mut self) -> f32 {
         self.arm.film_voltage()

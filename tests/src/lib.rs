@@ -19,11 +19,23 @@ pub fn firmware(board: Board) -> BoardConfig {
 /// at the joint angles `theta` [rad], stepped at `cfg`'s piezo period, booted at tick 0.
 pub fn rig(cfg: BoardConfig, theta: [f32; 2]) -> Rig<SimulatedArm> {
     let q = Vector4::new(theta[0], theta[1], 0.0, 0.0);
-    Rig::new(
+    let mut rig = Rig::new(
         cfg,
         SimulatedArm::paper(cfg.patch, q, cfg.piezo_period()),
         flexarm_core::time::Ticks(0),
-    )
+    );
+    // The simulated arm's encoders read its own angles: the arm's frame, declared (as the
+    // QEMU board's boot does).
+    declared(&mut rig);
+    rig
+}
+
+/// Declares the encoders' frame the arm's (`Drive::declare_zero`): a simulated arm whose
+/// encoders count from the plant's zero.
+pub fn declared<B: flexarm_machine::Board>(rig: &mut Rig<B>) {
+    if let Err(e) = rig.declare_encoders() {
+        panic!("declare: {e:?}");
+    }
 }
 
 /// What a test injects between the simulated arm and the controller.
@@ -120,5 +132,7 @@ pub fn test_rig(cfg: BoardConfig, theta: [f32; 2], injection: Injection) -> Rig<
         peak: 0.0,
         push: flexarm_core::Vector2::zeros(),
     };
-    Rig::new(cfg, arm, flexarm_core::time::Ticks(0))
+    let mut rig = Rig::new(cfg, arm, flexarm_core::time::Ticks(0));
+    declared(&mut rig);
+    rig
 }

@@ -28,6 +28,7 @@ fn run(start: u64) -> Vec<[u32; 2]> {
         cfg.piezo_period(),
     );
     let mut rig = Rig::new(cfg, arm, Ticks(start));
+    flexarm_tests::declared(&mut rig);
     rig.arm().unwrap();
     let paper = Trapezoid::<f32>::paper();
     let request = flexarm_core::drive::MoveRequest::Trapezoid {

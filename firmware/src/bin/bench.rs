@@ -402,6 +402,8 @@ fn recorded() -> [State; N] {
     let mut drive = cfg.drive(&mut control.ctrl, now);
     let mut motor = MotorLoop::new(&cfg, now);
     let traj = Trapezoid::<f32>::paper();
+    // The simulated arm's encoders read its own angles: the arm's frame, declared.
+    let _ = drive.declare_zero(&mut control.ctrl);
     let started = drive.arm(&mut control.ctrl, now).and_then(|()| {
         let boot = flexarm_core::drive::MoveRequest::Trapezoid {
             target: traj.start + traj.amplitude,

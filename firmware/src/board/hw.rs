@@ -21,6 +21,7 @@ use core::f32::consts::TAU;
 
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
 use flexarm_core::Vector2;
+use flexarm_core::homing;
 use flexarm_core::params::Limits;
 use stm32f4::stm32f405::{ADC1, DAC, GPIOA, GPIOB, GPIOC, IWDG, RCC, TIM1, TIM8, TIM12};
 
@@ -185,20 +186,35 @@ impl HwBoard {
             1 | (1 << 1) | (1 << 8)
         );
 
-        // GPIOA: PA0 analog (ADC), PA8/PA9 AF1 (TIM1).
+        // GPIOA: PA0 analog (ADC), PA8/PA9 AF1 (TIM1 CH1/CH2: encoder 1's A/B), PA10 AF1
+        // (TIM1 CH3: encoder 1's index, issue 33).
         set_bits!(
             gpioa.moder(),
-            3 | (3 << 16) | (3 << 18),
-            3 | (2 << 16) | (2 << 18)
+            3 | (3 << 16) | (3 << 18) | (3 << 20),
+            3 | (2 << 16) | (2 << 18) | (2 << 20)
         );
-        set_bits!(gpioa.afrh(), 0xFF, 0x11);
+        set_bits!(gpioa.afrh(), 0xFFF, 0x111);
         // Encoder inputs pulled up (PUPDR = 0b01): open-collector encoders need it, line
         // receivers with push-pull outputs do not mind it.
-        set_bits!(gpioa.pupdr(), (3 << 16) | (3 << 18), (1 << 16) | (1 << 18));
-        // GPIOC: PC6/PC7 AF3 (TIM8), pulled up as well.
-        set_bits!(gpioc.moder(), (3 << 12) | (3 << 14), (2 << 12) | (2 << 14));
+        set_bits!(
+            gpioa.pupdr(),
+            (3 << 16) | (3 << 18) | (3 << 20),
+            (1 << 16) | (1 << 18) | (1 << 20)
+        );
+        // GPIOC: PC6/PC7 AF3 (TIM8 CH1/CH2), PC8 AF3 (TIM8 CH3: encoder 2's index), pulled up
+        // as well.
+        set_bits!(
+            gpioc.moder(),
+            (3 << 12) | (3 << 14) | (3 << 16),
+            (2 << 12) | (2 << 14) | (2 << 16)
+        );
         set_bits!(gpioc.afrl(), 0xFF << 24, 0x33 << 24);
-        set_bits!(gpioc.pupdr(), (3 << 12) | (3 << 14), (1 << 12) | (1 << 14));
+        set_bits!(gpioc.afrh(), 0xF, 0x3);
+        set_bits!(
+            gpioc.pupdr(),
+            (3 << 12) | (3 << 14) | (3 << 16),
+            (1 << 12) | (1 << 14) | (1 << 16)
+        );
         // GPIOB: PB13 input (MODER 0b00, its reset value) with pull-up; PB12 (the enable, an
         // output driven low) and PB14/PB15 (TIM12) are `super::pre_init`'s.
         set_bits!(gpiob.moder(), 3 << 26, 0);
@@ -223,6 +239,11 @@ impl HwBoard {
                     0x0101 | (0b1111 << 4) | (0b1111 << 12)
                 );
                 set_bits!($t.ccer(), 1 << 1, u32::from($reversed) << 1);
+                // The index (issue 33): CCMR2 CC3S = 0b01 (IC3 on TI3), the same filter;
+                // CCER CC3E: the counter captured into CCR3 at the index's rising edge
+                // (CC3IF set until CCR3 is read).
+                set_bits!($t.ccmr2_input(), 0xF3, 0x01 | (0b1111 << 4));
+                set_bits!($t.ccer(), 1 << 8, 1 << 8);
                 set_bits!($t.arr(), 0xFFFF, 0xFFFF);
                 set_bits!($t.cr1(), 1, 1);
             }};
@@ -276,6 +297,32 @@ impl HwBoard {
 }
 
 impl Board for HwBoard {
+    /// The counts the encoder timers captured at an index pulse (TIM1/TIM8 CH3, PA10/PC8)
+    /// since the last call, as angles from the accumulated counts of the last
+    /// [`Board::encoders`] (which the motor loop reads just before).
+    fn homing_inputs(&mut self) -> homing::Inputs<f32> {
+        let captured = [
+            (self.tim1.sr().read().bits() & (1 << 3) != 0)
+                .then(|| self.tim1.ccr3().read().bits() as u16),
+            (self.tim8.sr().read().bits() & (1 << 3) != 0)
+                .then(|| self.tim8.ccr3().read().bits() as u16),
+        ];
+        let mut latched = [f32::NAN; 2];
+        for (j, c) in captured.iter().enumerate() {
+            if let (Some(c), Some(raw), Some(count), Some(per_rev), Some(slot)) = (
+                c,
+                self.raw.get(j),
+                self.counts.get(j),
+                COUNTS_PER_REV.get(j),
+                latched.get_mut(j),
+            ) {
+                let at = count.wrapping_add(i32::from(c.wrapping_sub(*raw) as i16));
+                *slot = at as f32 * (TAU / per_rev);
+            }
+        }
+        homing::Inputs { latched }
+    }
+
     fn encoders(&mut self) -> Vector2<f32> {
         let now = [
             self.tim1.cnt().read().bits() as u16,

@@ -214,6 +214,14 @@ impl Board for SimBoard {
         let Ok(low) = self.fault_n.is_low();
         low
     }
+    /// The simulated arm's index pulses (the link session's arm has marks). The counts are
+    /// the plant's encoder's: the link session's wiring is the identity (`wiring`: not
+    /// reversed, 16384 counts a revolution); its miswired bring-up builds boot declared and do
+    /// not home.
+    #[cfg(feature = "link-session")]
+    fn homing_inputs(&mut self) -> flexarm_core::homing::Inputs<f32> {
+        Board::homing_inputs(&mut self.sim)
+    }
     fn motor_period(&mut self, t: f32) {
         self.run.observe(&self.sim.arm, self.sim.diverged, t);
     }
