@@ -10,10 +10,10 @@ use flexarm_core::Vector2;
 use flexarm_core::Vector4;
 use flexarm_core::drive::{Mode, MoveRequest, Refused};
 use flexarm_core::homing::{Config, JointHoming, Method, State};
+use flexarm_host::rig::Rig;
 use flexarm_link::Command;
 use flexarm_link::msg::{Board, HomeState, Refusal, Reply};
 use flexarm_machine::simulated::SimulatedArm;
-use flexarm_host::rig::Rig;
 use flexarm_tests::firmware;
 
 /// The simulated arm at rest at the plant's angles `theta` [rad], its encoders counting 0
