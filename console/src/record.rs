@@ -573,10 +573,11 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
     };
     let (_, simulated) = simulate_segments(&cfg, &segments, true)
         .map_err(|e| ConsoleError::Usage(format!("the simulation: {e}")))?;
-    // Align on the reference: from ten frames back to two on. A path's cubic starts with no
+    // Align on the reference: from two frames back to ten on. A path's cubic starts with no
     // acceleration, its reference growing as t³, so the 1e-6 rad threshold above finds its start
-    // a few frames late (3 on the QEMU arm's console path: a run whose move started between
-    // frames failed at the old ±2, mean gap 9.6e-4 rad); a slower path, later still.
+    // a few frames late and the recorded times come out early (3 frames on the QEMU arm's
+    // console path: a run failed at the old ±2 with a mean gap of 9.6e-4 rad); a slower path,
+    // later still.
     let gap = |shift: f64| {
         let sum: f64 = recorded
             .iter()
@@ -587,7 +588,7 @@ pub fn compare(csv: &Path) -> Result<Comparison, ConsoleError> {
             .sum();
         sum / (2 * recorded.len()) as f64
     };
-    let (shift, reference_gap) = (-10..=2)
+    let (shift, reference_gap) = (-2..=10)
         .map(|k| {
             let shift = f64::from(k) * dt;
             (shift, gap(shift))
