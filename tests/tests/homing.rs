@@ -70,27 +70,8 @@ fn home(rig: &mut Rig<SimulatedArm>, seconds: f32) -> f32 {
     rig.home().unwrap();
     assert_eq!(rig.mode(), Mode::Homing);
     for k in 0..(seconds * 1000.0) as usize {
-        let p = rig.period();
-        if std::env::var("HOMING_TRACE").is_ok() && k % 100 == 0 {
-            eprintln!(
-                "{k} {:?} {:?} plant {:?} y {:?} tau {:?}",
-                rig.mode(),
-                rig.control.ctrl.fault(),
-                plant(rig),
-                p.y.theta,
-                p.command.tau
-            );
-        }
+        rig.period();
         if rig.mode() != Mode::Homing {
-            if std::env::var("HOMING_TRACE").is_ok() {
-                eprintln!(
-                    "left homing at {k}: {:?} {:?} plant {:?} y {:?}",
-                    rig.mode(),
-                    rig.control.ctrl.fault(),
-                    plant(rig),
-                    p.y.theta
-                );
-            }
             return k as f32 * 1e-3;
         }
     }
@@ -101,18 +82,10 @@ fn plant(rig: &Rig<SimulatedArm>) -> Vector2<f32> {
     rig.board.arm.x.q.xy()
 }
 
+/// Runs `seconds` of board periods.
 fn run(rig: &mut Rig<SimulatedArm>, seconds: f32) {
-    for k in 0..(seconds * 1000.0) as usize {
+    for _ in 0..(seconds * 1000.0) as usize {
         rig.period();
-        if std::env::var("HOMING_TRACE").is_ok() && k % 100 == 0 {
-            eprintln!(
-                "{k} {:?} {:?} plant {:?} est {:?}",
-                rig.mode(),
-                rig.control.ctrl.fault(),
-                plant(rig),
-                rig.control.ctrl.estimate().0.xy()
-            );
-        }
     }
 }
 
