@@ -228,6 +228,13 @@ enum Action {
         /// The modes experiment's moves of joint 2 about the pose [rad].
         #[arg(long, default_value_t = 0.05)]
         tap: f64,
+        /// The decay experiment's time between taps [s] (at least three periods of the band's
+        /// LOW: 3 s for the default 1.5 Hz).
+        #[arg(long, default_value_t = 3.0)]
+        spacing: f64,
+        /// `decay`: the band the decay's modes are read in, `LOW,HIGH` [Hz] (default 1.5,40).
+        #[arg(long, value_delimiter = ',')]
+        band: Option<Vec<f64>>,
         /// The output folder.
         out: PathBuf,
         /// Cruise speeds [rad/s], both directions each.
@@ -554,6 +561,8 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             seconds,
             volts,
             tap,
+            spacing,
+            band,
             out,
             speeds,
             cruise,
@@ -592,7 +601,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     .1
                 }
                 "decay" => {
-                    let plan = decay_plan(taps, volts);
+                    let plan = decay_plan(taps, volts, spacing);
                     let (trace, window) = flexarm_console::identify::decay(&mut c, &plan)?;
                     let film_range =
                         f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
@@ -606,7 +615,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                         staging,
                         &trace,
                         (film_range, window),
-                        (&plan, None),
+                        (&plan, decay_band(band.as_deref(), spacing)?),
                         &flexarm_host::sim::SimConfig::board(
                             f64::from(c.hello.motor_hz),
                             f64::from(c.hello.piezo_hz),
@@ -729,6 +738,8 @@ fn check_arguments(cli: &Cli) -> Result<(), ConsoleError> {
             seconds,
             volts,
             tap,
+            spacing,
+            band,
             speeds,
             cruise,
             ..
@@ -737,7 +748,10 @@ fn check_arguments(cli: &Cli) -> Result<(), ConsoleError> {
             match experiment.as_str() {
                 "inertia" => inertia::moves(&inertia_plan(*moves)).map(drop),
                 "modes" => modes::excitation(&modes_plan(*seconds, *volts, *tap)).map(drop),
-                "decay" => decay_plan(*taps, *volts).excitation().map(drop),
+                "decay" => {
+                    decay_band(band.as_deref(), *spacing)?;
+                    decay_plan(*taps, *volts, *spacing).excitation().map(drop)
+                }
                 _ => identify::check_speeds(speeds).map(drop),
             }
             .map_err(usage)?;
@@ -769,13 +783,51 @@ fn modes_plan(seconds: f64, volts: f64, tap: f64) -> flexarm_host::identify::mod
     }
 }
 
-/// The decay experiment: `taps` taps of `volts`.
-fn decay_plan(taps: usize, volts: f64) -> flexarm_host::identify::decay::DecayPlan {
+/// The decay experiment: `taps` taps of `volts`, `spacing` [s] apart.
+fn decay_plan(taps: usize, volts: f64, spacing: f64) -> flexarm_host::identify::decay::DecayPlan {
     flexarm_host::identify::decay::DecayPlan {
         taps,
         volts,
+        spacing,
         ..Default::default()
     }
+}
+
+/// The decay's band (`--band`), checked before connecting: `0 < LOW < HIGH`, and taps far
+/// enough apart (`--spacing`) for decays three periods of LOW long (the fit's `record length`
+/// gate would refuse the record after the experiment otherwise). The band's top against the
+/// record's rate is the fit's check (`DecaySettings::for_band`).
+fn decay_band(band: Option<&[f64]>, spacing: f64) -> Result<Option<(f64, f64)>, ConsoleError> {
+    let band = match band {
+        None => None,
+        Some(&[low, high]) => Some((low, high)),
+        Some(b) => {
+            return Err(ConsoleError::Usage(format!(
+                "--band: give LOW,HIGH in Hz, not {} value(s)",
+                b.len()
+            )));
+        }
+    };
+    let low = match band {
+        Some((low, high)) if low.is_finite() && high.is_finite() && low > 0.0 && high > low => low,
+        Some((low, high)) => {
+            return Err(ConsoleError::Usage(format!(
+                "--band {low},{high}: give LOW,HIGH in Hz with 0 < LOW < HIGH"
+            )));
+        }
+        None => {
+            flexarm_host::identify::decay::DecaySettings::default()
+                .band
+                .0
+        }
+    };
+    let need = 3.3 / low + flexarm_host::identify::decay::DecayPlan::default().width;
+    if spacing.is_nan() || spacing < need {
+        return Err(ConsoleError::Usage(format!(
+            "--spacing {spacing} s: decays down to {low} Hz need the taps {need:.2} s apart or more"
+        )));
+    }
+    Ok(band)
 }
 
 /// The move a subcommand names (a waypoint path's points come from `path`, read before).

@@ -367,6 +367,18 @@ fn every_argument_is_checked_before_connecting() {
             "--seconds NaN: give more than 0",
         ),
         (
+            &["identify", "decay", "out", "--band", "5,2"],
+            "--band 5,2: give LOW,HIGH in Hz with 0 < LOW < HIGH",
+        ),
+        (
+            &["identify", "decay", "out", "--band", "0.3,40"],
+            "--spacing 3 s: decays down to 0.3 Hz need the taps 11.02 s apart or more",
+        ),
+        (
+            &["identify", "decay", "out", "--spacing", "nan"],
+            "--spacing NaN s: decays down to 1.5 Hz need",
+        ),
+        (
             &["record", "--seconds", "2", "--decimation", "0", "out"],
             "--decimation 0",
         ),

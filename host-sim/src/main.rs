@@ -116,10 +116,10 @@ enum Command {
         seconds: f64,
         /// `modes`, `model`: the band fitted, `LOW,HIGH` [Hz] (default: what the record's inputs
         /// cover); `decay`: the band the decay's modes are read in (default 1.5,40).
-        #[arg(long, value_delimiter = ',', num_args = 2)]
+        #[arg(long, value_delimiter = ',')]
         band: Option<Vec<f64>>,
         /// `modes`, `model`: the controller's modes, numbered from 1 upwards among those found (default 1,2).
-        #[arg(long, value_delimiter = ',', num_args = 2)]
+        #[arg(long, value_delimiter = ',')]
         keep: Option<Vec<usize>>,
         /// `modes`, `model`: most modes the stabilization diagram makes room for.
         #[arg(long, default_value_t = 8)]
@@ -556,7 +556,25 @@ fn main_result(cli: Cli) -> Result<()> {
             {
                 return Err(format!("--segment {s}: give a length in seconds > 0"));
             }
-            let band = band.map(|b| (b[0], b[1]));
+            // One occurrence, `LOW,HIGH` (`num_args = 2` would want them as two words).
+            let band = match band.as_deref() {
+                None => None,
+                Some(&[low, high]) => Some((low, high)),
+                Some(b) => {
+                    return Err(format!(
+                        "--band: give LOW,HIGH in Hz, not {} value(s)",
+                        b.len()
+                    ));
+                }
+            };
+            if let Some(k) = keep.as_deref()
+                && k.len() != 2
+            {
+                return Err(format!(
+                    "--keep: give two mode numbers, M,N, not {} value(s)",
+                    k.len()
+                ));
+            }
             let fit_set = flexarm_host::identify::modal::FitSettings {
                 band,
                 keep: keep.unwrap_or_else(|| vec![1, 2]),

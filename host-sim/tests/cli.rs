@@ -1386,3 +1386,29 @@ fn a_coarse_plant_step_names_the_step_it_needs() {
         .unwrap_or(f64::NAN);
     assert!(give > 1e-4 && give < 1e-3, "{stderr}");
 }
+
+/// `--band LOW,HIGH` and `--keep M,N` are one word each, as their help says (issue 32: with
+/// `num_args = 2` clap wanted two words and refused `--band 0.3,40`); another count is named.
+#[test]
+fn band_and_keep_take_one_comma_separated_pair() {
+    let missing = "/flexarm-no-such-record.csv";
+    let out = std::env::temp_dir().join(format!("flexarm-band-{}", std::process::id()));
+    let out = out.to_string_lossy();
+    for args in [
+        &["identify", "decay", "--band", "0.3,40"][..],
+        &["identify", "modes", "--band", "1,30", "--keep", "1,3"],
+    ] {
+        let (ok, _, err) = sim(&[args, &["--record", missing, "--out", &out]].concat());
+        assert!(!ok && err.contains(missing), "{args:?}: {err}");
+    }
+    let (ok, _, err) = sim(&["identify", "modes", "--band", "1,2,3", "--record", missing]);
+    assert!(
+        !ok && err.contains("--band: give LOW,HIGH in Hz, not 3 value(s)"),
+        "{err}"
+    );
+    let (ok, _, err) = sim(&["identify", "modes", "--keep", "2", "--record", missing]);
+    assert!(
+        !ok && err.contains("--keep: give two mode numbers"),
+        "{err}"
+    );
+}
