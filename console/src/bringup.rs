@@ -268,37 +268,33 @@ fn experiments(c: &mut Client, o: &Options, r: &mut Report) -> Result<(), Consol
     // limit holds in the arm's frame; the drive refuses to arm. A search that fails ends the
     // bring-up here, with the drive disarmed.
     let s = c.status()?;
-    if crate::home::known(&s) {
-        r.record(
-            "homing",
-            true,
-            format!("{:?}", s.homing).to_lowercase(),
-            "every joint homed or declared",
-            String::new(),
-        );
+    let homed = if crate::home::known(&s) {
+        Ok(s)
     } else {
-        match crate::home::home(c) {
-            Ok(s) => {
-                r.record(
-                    "homing",
-                    true,
-                    format!("{:?}", s.homing).to_lowercase(),
-                    "every joint homed or declared",
-                    String::new(),
-                );
-            }
-            Err(e) => {
-                r.record(
-                    "homing",
-                    false,
-                    e.to_string(),
-                    "every joint homed or declared",
-                    "the board's homing configuration (BoardConfig::homing: method, angle, \
-                     search direction) and the index, end stop or switch it names"
-                        .into(),
-                );
-                return Ok(());
-            }
+        crate::home::home(c)
+    };
+    let want = "every joint homed or declared";
+    match homed {
+        Ok(s) => {
+            r.record(
+                "homing",
+                true,
+                format!("{:?}", s.homing).to_lowercase(),
+                want,
+                String::new(),
+            );
+        }
+        Err(e) => {
+            r.record(
+                "homing",
+                false,
+                e.to_string(),
+                want,
+                "the board's homing configuration (BoardConfig::homing: method, angle, \
+                 search direction) and the index, end stop or switch it names"
+                    .into(),
+            );
+            return Ok(());
         }
     }
     if c.status()?.mode == Mode::Disarmed {

@@ -314,11 +314,10 @@ mod app {
             );
         }
         let heat_restored = drive.restore_heat(heat_store);
-        let heat = drive.monitor().heat;
         if !heat_restored {
             defmt::warn!(
                 "motor heat: no valid store (power-on or a torn write): assumed hot, {=f32}; full torque once cool",
-                heat.x
+                drive.monitor().heat.x
             );
         }
         // The QEMU board's simulated arm: its encoders read the plant's own angles, the arm's
@@ -379,8 +378,6 @@ mod app {
                 heat_restored,
             );
         }
-        #[cfg(not(feature = "inject-reset"))]
-        let _ = (restored, heat);
         (
             Shared {
                 control,
