@@ -7,7 +7,7 @@
 //! |---|---|---|---|
 //! | following error | `\|θ_i − θ_d,i\| > following_i` | [`Fault::FollowingError`] | category 0 |
 //! | runaway | for `runaway_periods` in a row: `\|θ̇̂_i\| ≥ runaway_speed` and not falling while `τ_i θ̇̂_i < 0` with `\|τ_i\| ≥ runaway_torque_i` (the joint speeds up against its torque), and `\|θ_i − θ_d,i\| ≥ runaway_error` | [`Fault::Runaway`] | category 0 |
-//! | frozen encoder | for `frozen_periods` in a row: `\|τ_i\| ≥ frozen_torque_i` of one sign, the reference moving by at least `frozen_step` a period, and the encoder's reading unchanged | [`Fault::FrozenEncoder`] | category 0 |
+//! | frozen encoder (a stall) | the encoder's reading unchanged for longer than the joint can stay within one count under the acceleration the model predicts for the torques, or while the observer's travel covers three counts with the torques pushing on (below) | [`Fault::FrozenEncoder`] | category 0 |
 //! | overspeed | `\|θ̇̂_i\| > speed_i` | [`Fault::Overspeed`] | category 0 |
 //! | soft limit | a joint closer to the end of its range (`range_min`, `range_max`) than its stopping distance at `stop_accel` plus `range_margin`, moving towards it | [`Fault::SoftLimit`] | category 1 |
 //! | motor overload | the I²t state of a motor reaches `thermal.trip` | [`Fault::Overload`] | category 1 |
@@ -19,6 +19,32 @@
 //! faults whose sensors agree with the model: a joint at the end of its range, a motor running
 //! hot. The drive (`crate::drive`) carries out the stop; this module only judges.
 //!
+//! **The stall check** judges a reading that does not change from the physics rather than from
+//! a speed threshold. Over a stretch of `n` motor periods (period `T`) in which a joint's
+//! acceleration is at least `a > 0` of one sign, its angle `x(t)` has a second difference
+//! `x(nT) − 2x(nT/2) + x(0) ≥ a (nT)²/4`; a joint that stays within one count `c` of its encoder
+//! has a second difference of at most `2c`. So a reading unchanged for `n` periods while the
+//! acceleration is at least `a` means a frozen encoder (or a joint held by something the model
+//! does not know: an obstacle, a brake) once `a (nT)² > 8c`. The least acceleration is the
+//! model's: `θ̈ = [B⁻¹(u − C q̇ − K q − D q̇)]_θ` at the observer's estimate for the torques
+//! commanded ([`predicted`]: the other joint's reaction, the link's elastic pull and the
+//! centrifugal terms in it), less what `stall_friction` can explain (mapped through the hubs'
+//! inverse inertia `S⁻¹`), divided by `stall_margin` for an arm heavier than its model. As the
+//! acceleration varies, the check keeps [`STALL_LEVELS`] levels `a_k = stall_accel · 2^k`, each
+//! with the periods since the acceleration last fell below it, and trips on the first level
+//! whose window `sqrt(8c/a_k)` has passed (at least [`STALL_MIN_PERIODS`] periods). A joint
+//! turning round stays on one count for at most `sqrt(8c/a)` at its true acceleration `a`
+//! (23 ms for the circle's joint 1 at about 6 rad/s²), inside the window the margin leaves.
+//!
+//! The stall check's second bound is the observer's: while the reading stays, the observer's
+//! speed summed over the stay, `Σ θ̇̂ T`, is its travel, and the joint's own travel is under one
+//! count. Once the observer's travel, less `stall_speed_error` times the stay's length, covers
+//! three counts (one for the joint, two for the observer), with the model's acceleration along
+//! it (the loop pushing on after a reading that froze, not braking a joint that its observer
+//! overshoots), the reading is frozen. It catches a frozen encoder on a moving joint within a
+//! few periods, and on a slow one once its observer's speed leaves the error allowed
+//! (docs/safety.md, the table by speed).
+//!
 //! The I²t model of each motor: a thermal state `h` in units of the continuous rating,
 //! `dh/dt = ((τ/τ_c)² − h)/T_th`, so `h → 1` under the continuous torque `τ_c`. From
 //! `h = thermal.derate` the torque limit falls linearly to `τ_c` at `h = thermal.floor`
@@ -28,9 +54,18 @@
 //!
 //! Units SI: rad, rad/s, N·m, s; joint frames of `crate::model`.
 
-use crate::Vector2;
 use crate::fault::Fault;
+use crate::model::Model;
 use crate::real::Real;
+use crate::{Matrix2, Vector2, Vector4};
+
+/// Levels of the stall check's acceleration (module docs): `stall_accel · 2^k`,
+/// `k = 0 … STALL_LEVELS − 1`.
+pub const STALL_LEVELS: usize = 10;
+
+/// The shortest stall window [motor periods]: a reading unchanged for one or two periods is
+/// ordinary at a slow loop's rate whatever the model says.
+pub const STALL_MIN_PERIODS: u16 = 3;
 
 /// One motor's thermal rating.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,15 +109,17 @@ pub struct MotionLimits<T> {
     pub runaway_error: T,
     /// Runaway: consecutive motor periods to trip.
     pub runaway_periods: u32,
-    /// Frozen encoder: the torque magnitude that should move the joint [N·m].
-    pub frozen_torque: Vector2<T>,
-    /// Frozen encoder: consecutive motor periods without a change of the reading.
-    pub frozen_periods: u32,
-    /// Frozen encoder: the least step of the reference in one motor period [rad] for the
-    /// period to count. A joint turning round under a large torque stays on one encoder count
-    /// for tens of milliseconds (the circle's joint 1: up to 23 ms at 3.5 N·m); its reference
-    /// turns round too, and such periods do not count.
-    pub frozen_step: T,
+    /// Stall check: one count of the encoders [rad].
+    pub count: T,
+    /// Stall check: the torque per joint the model does not explain while a joint is held
+    /// still: static and Coulomb friction, cogging [N·m].
+    pub stall_friction: Vector2<T>,
+    /// Stall check: how much heavier than its model the arm may be (payload) [-].
+    pub stall_margin: T,
+    /// Stall check: the lowest acceleration level `a_0` [rad/s²].
+    pub stall_accel: T,
+    /// Stall check: how far the observer's joint speed may be off the joint's [rad/s].
+    pub stall_speed_error: T,
     /// The ends of the joint ranges the soft limit keeps the joints from [rad] (the sensors'
     /// range check is the hard limit behind them).
     pub range_min: Vector2<T>,
@@ -103,17 +140,17 @@ impl<T: Real> MotionLimits<T> {
     /// limited to 3); runaway at 0.2 rad/s against a torque of 1 N·m with an error of 0.01 rad,
     /// for 10 ms (the error scaled up as `K_p` is scaled down on a slow loop,
     /// [`crate::params::Gains::default_for`]: healthy tracking errors grow as `1/K_p`, 0.022
-    /// rad at 100 Hz); frozen encoder at 3 N·m of one sign for 20 ms while the reference moves at
-    /// 0.1 rad/s or more (the windows at least 2 and 3 periods); soft limits at the sensors'
+    /// rad at 100 Hz); the stall check on 16384-count encoders, with 0.2 N·m of friction per
+    /// joint (four times the truth plant's Coulomb friction), an arm up to 3 times heavier than
+    /// its model, and levels from 0.02 rad/s² (a window of 0.39 s) to 10.24 rad/s² (17 ms);
+    /// soft limits at the sensors'
     /// range (θ1 ±π, θ2 ±2.8 rad) with a 0.02 rad margin beyond the stopping distance at
     /// 10 rad/s²; motors rated 4 N·m continuous with a 20 s winding time constant, derating from
     /// 60 % of the rating's heat to the continuous torque at 90 %, faulting at 95 %.
     pub fn default_for(motor_hz: u32) -> Self {
         // The windows in periods, a few samples whatever the rate. At the QEMU board's 100 Hz
         // 10 ms is one period, and one noisy speed estimate on the circle tripped the runaway
-        // check: it takes two (two differences of the speed). Two periods on one reading are
-        // ordinary there too (joint 2 held still by the reaction of joint 1 accelerating at
-        // 10 N·m): the frozen-encoder check takes three.
+        // check: it takes two (two differences of the speed).
         let periods = |s: f64, min: u32| ((s * f64::from(motor_hz)) as u32).max(min);
         let both = |x: f64| Vector2::new(T::c(x), T::c(x));
         Self {
@@ -123,9 +160,11 @@ impl<T: Real> MotionLimits<T> {
             runaway_torque: both(1.0),
             runaway_error: T::c(0.01 / crate::params::gain_scale(motor_hz)),
             runaway_periods: periods(0.010, 2),
-            frozen_torque: both(3.0),
-            frozen_periods: periods(0.020, 3),
-            frozen_step: T::c(0.1 / f64::from(motor_hz.max(1))),
+            count: T::c(core::f64::consts::TAU / 16384.0),
+            stall_friction: both(0.1),
+            stall_margin: T::c(5.0),
+            stall_accel: T::c(0.02),
+            stall_speed_error: T::c(0.1 * (1000.0 / f64::from(motor_hz.max(1))).max(1.0)),
             range_min: Vector2::new(T::c(-core::f64::consts::PI), T::c(-2.8)),
             range_max: Vector2::new(T::c(core::f64::consts::PI), T::c(2.8)),
             stop_accel: both(10.0),
@@ -163,13 +202,67 @@ pub struct MotionSample<T> {
     pub speed: Vector2<T>,
     /// Torques commanded [N·m].
     pub tau: Vector2<T>,
+    /// The joints' accelerations the model predicts for `tau` at the observer's estimate
+    /// [rad/s²] ([`predicted`]).
+    pub accel: Vector2<T>,
+    /// The hubs' inverse inertia `S⁻¹` there [1/(kg·m²)]: what a torque the model leaves out
+    /// (friction) does to the accelerations.
+    pub inertia_inv: Matrix2<T>,
+}
+
+/// The model's joint accelerations and the hubs' inverse inertia for the torques `tau` [N·m]
+/// at the state `(q, q̇)` (module docs, the stall check): `θ̈ = [B⁻¹(u − C q̇ − K q − D q̇)]_θ`
+/// with `u = (τ, 0)`, and `S⁻¹ = (B_θθ − B_θδ B_δθ)⁻¹`. Zeros (the stall check counts nothing)
+/// when the state is not finite.
+pub fn predicted<T: Real>(
+    model: &Model<T>,
+    q: &Vector4<T>,
+    qd: &Vector4<T>,
+    tau: Vector2<T>,
+) -> (Vector2<T>, Matrix2<T>) {
+    let terms = model.terms(q);
+    let u = Vector4::new(tau.x, tau.y, T::zero(), T::zero());
+    match (
+        model.acceleration_with(&terms, q, qd, &u),
+        terms.schur_inverse(),
+    ) {
+        (Some(a), Some(s_inv)) => (a.xy(), s_inv),
+        _ => (Vector2::zeros(), Matrix2::zeros()),
+    }
+}
+
+/// One joint's trend checks' state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct JointTrends<T> {
+    /// Runaway: the periods in a row it has counted.
+    runaway: u32,
+    /// Stall: per level, the periods the reading has stayed with the least acceleration at or
+    /// above the level.
+    levels: [u16; STALL_LEVELS],
+    /// Stall: the sign of the counted acceleration (0: none).
+    sign: i8,
+    /// Stall: the periods the reading has stayed.
+    stay: u16,
+    /// Stall: the observer's travel `Σ θ̇̂ T` while the reading stays [rad].
+    travel: T,
+}
+
+impl<T: Real> JointTrends<T> {
+    fn new() -> Self {
+        Self {
+            runaway: 0,
+            levels: [0; STALL_LEVELS],
+            sign: 0,
+            stay: 0,
+            travel: T::zero(),
+        }
+    }
 }
 
 /// The checks' state: counters, the previous sample, the motors' heat.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotionMonitor<T> {
-    runaway: [u32; 2],
-    frozen: [u32; 2],
+    joints: [JointTrends<T>; 2],
     /// The previous period's sample.
     previous: Option<MotionSample<T>>,
     /// The motors' I²t states [units of the continuous rating].
@@ -186,8 +279,7 @@ impl<T: Real> MotionMonitor<T> {
     /// Cold motors, no history.
     pub fn new() -> Self {
         Self {
-            runaway: [0; 2],
-            frozen: [0; 2],
+            joints: [JointTrends::new(); 2],
             previous: None,
             heat: Vector2::zeros(),
         }
@@ -198,16 +290,32 @@ impl<T: Real> MotionMonitor<T> {
         self.previous.as_ref()
     }
 
-    /// The trend checks' current streaks, `(runaway, frozen)` per joint [motor periods]: how
-    /// many periods in a row each has counted (it trips at its window).
-    pub fn streaks(&self) -> ([u32; 2], [u32; 2]) {
-        (self.runaway, self.frozen)
+    /// The runaway check's current streaks per joint [motor periods]: how many periods in a row
+    /// it has counted (it trips at its window).
+    pub fn streaks(&self) -> [u32; 2] {
+        self.joints.map(|j| j.runaway)
+    }
+
+    /// How far the stall check has got: the largest share of a window the reading has stayed,
+    /// over both joints, every acceleration level and the travel bound (it trips at 1).
+    pub fn stall_fill(&self, limits: &MotionLimits<T>, period: T) -> T {
+        let mut fill = T::zero();
+        for joint in &self.joints {
+            let mut a = limits.stall_accel;
+            for &n in &joint.levels {
+                fill = fill.max(T::count(n) / stall_window(limits, a, period));
+                a *= T::c(2.0);
+            }
+            let stayed = T::count(joint.stay) * period;
+            let covered = joint.travel.abs() - limits.stall_speed_error * stayed;
+            fill = fill.max(covered / stall_travel(limits));
+        }
+        fill
     }
 
     /// Forgets the motion's history (the motors' heat stays): after a disarm or a new arm.
     pub fn restart(&mut self) {
-        self.runaway = [0; 2];
-        self.frozen = [0; 2];
+        self.joints = [JointTrends::new(); 2];
         self.previous = None;
     }
 
@@ -233,8 +341,9 @@ impl<T: Real> MotionMonitor<T> {
         })
     }
 
-    /// One armed motor period (module docs): the first check that fails, category 0 before 1.
-    pub fn check(&mut self, limits: &MotionLimits<T>, s: &MotionSample<T>) -> Verdict {
+    /// One armed motor period of `period` [s] (module docs): the first check that fails,
+    /// category 0 before 1.
+    pub fn check(&mut self, limits: &MotionLimits<T>, s: &MotionSample<T>, period: T) -> Verdict {
         let l = limits;
         let e = s.theta - s.theta_d;
         let previous = self.previous.replace(*s);
@@ -244,8 +353,8 @@ impl<T: Real> MotionMonitor<T> {
         // runs away, and its reaction holds joint 2 still against its torque).
         let mut frozen_reading = false;
         let heat = self.heat;
-        let counters = self.runaway.iter_mut().zip(self.frozen.iter_mut());
-        for (j, (runaway, frozen)) in counters.enumerate() {
+        let friction = s.inertia_inv.abs() * l.stall_friction;
+        for (j, trends) in self.joints.iter_mut().enumerate() {
             let pick = |v: &Vector2<T>| if j == 0 { v.x } else { v.y };
             let (ej, vj, tj, thj) = (pick(&e), pick(&s.speed), pick(&s.tau), pick(&s.theta));
             if ej.abs() > pick(&l.following) {
@@ -260,22 +369,53 @@ impl<T: Real> MotionMonitor<T> {
             let against = tj * vj < T::zero() && tj.abs() >= pick(&l.runaway_torque);
             let counts =
                 against && growing && vj.abs() >= l.runaway_speed && ej.abs() >= l.runaway_error;
+            let runaway = &mut trends.runaway;
             *runaway = if counts { runaway.saturating_add(1) } else { 0 };
             if *runaway >= l.runaway_periods {
                 return Verdict::Trip(Fault::Runaway);
             }
-            // Frozen encoder: a torque of one sign that should move the joint and a reference
-            // on the move, a reading that does not. (A hold that chatters, its torque flipping
-            // sign every period, moves the joint less than a count and is not a frozen encoder;
-            // nor is a joint turning round with its reference.)
-            let counts = tj.abs() >= pick(&l.frozen_torque)
-                && previous.is_some_and(|p| {
-                    pick(&p.theta) == thj
-                        && pick(&p.tau) * tj > T::zero()
-                        && (pick(&s.theta_d) - pick(&p.theta_d)).abs() >= l.frozen_step
-                });
-            *frozen = if counts { frozen.saturating_add(1) } else { 0 };
-            frozen_reading |= *frozen >= l.frozen_periods;
+            // Stall (module docs): the least acceleration the model and the allowances leave,
+            // of one sign, while the reading stays.
+            let unchanged = previous.is_some_and(|p| pick(&p.theta) == thj);
+            // Moving: the observer's travel over the stay, less what its speed error can
+            // account for, covers more than three counts, and the torques push the joint on
+            // along it. (An observer whose model is off runs on past a joint that brakes
+            // harder than it thinks; a loop chasing its reference past a frozen reading
+            // pushes on.)
+            let (stay, travel) = (&mut trends.stay, &mut trends.travel);
+            (*stay, *travel) = if unchanged {
+                (stay.saturating_add(1), *travel + vj * period)
+            } else {
+                (0, T::zero())
+            };
+            let covered = travel.abs() - l.stall_speed_error * T::count(*stay) * period;
+            frozen_reading |= *stay >= STALL_MIN_PERIODS
+                && covered >= stall_travel(l)
+                && *travel * pick(&s.accel) > T::zero();
+            let a = pick(&s.accel);
+            let least = (a.abs() - pick(&friction)) / l.stall_margin;
+            let sign = if least <= T::zero() {
+                0
+            } else if a > T::zero() {
+                1
+            } else {
+                -1
+            };
+            // A change of the reading or of the acceleration's sign starts a new stretch.
+            let restart = !unchanged || sign == 0 || sign != trends.sign;
+            trends.sign = sign;
+            // A level trips once `a_k (nT)² ≥ 8c`.
+            let (mut a_k, eight_c) = (l.stall_accel, T::c(8.0) * l.count);
+            for n in trends.levels.iter_mut() {
+                *n = if !restart && least >= a_k {
+                    n.saturating_add(1)
+                } else {
+                    0
+                };
+                let stayed = T::count(*n) * period;
+                frozen_reading |= *n >= STALL_MIN_PERIODS && a_k * stayed * stayed >= eight_c;
+                a_k *= T::c(2.0);
+            }
             // Soft limit: moving towards an end closer than the stopping distance.
             // (`d ≤ v²/(2a) + margin`, multiplied out: no division.)
             let within = |d: T| (d - l.range_margin) * T::c(2.0) * pick(&l.stop_accel) <= vj * vj;
@@ -293,4 +433,16 @@ impl<T: Real> MotionMonitor<T> {
         }
         verdict
     }
+}
+
+/// The stall check's travel bound [rad]: a joint moves at most one count while its reading
+/// stays, and the observer's travel may be off by two more.
+fn stall_travel<T: Real>(l: &MotionLimits<T>) -> T {
+    T::c(3.0) * l.count
+}
+
+/// The stall check's window at the acceleration `a` [motor periods of `period` s]:
+/// `sqrt(8c/a)/T`.
+fn stall_window<T: Real>(l: &MotionLimits<T>, a: T, period: T) -> T {
+    (T::c(8.0) * l.count / a).lsqrt() / period
 }

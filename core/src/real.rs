@@ -31,6 +31,8 @@ pub trait Real: RealField + Copy {
     fn lsqrt(self) -> Self;
     /// Converts an `f64` constant, rounding to nearest.
     fn c(x: f64) -> Self;
+    /// Converts a count exactly (no `f64` code on the MCU).
+    fn count(n: u16) -> Self;
     /// Converts to `f64` exactly.
     fn to_f64(self) -> f64;
     /// Converts to `f32`, rounding to nearest (for reports: no `f64` code on the MCU).
@@ -75,6 +77,9 @@ impl Real for f32 {
     fn c(x: f64) -> Self {
         x as f32
     }
+    fn count(n: u16) -> Self {
+        Self::from(n)
+    }
     fn to_f64(self) -> f64 {
         f64::from(self)
     }
@@ -113,6 +118,9 @@ impl Real for f64 {
     }
     fn c(x: f64) -> Self {
         x
+    }
+    fn count(n: u16) -> Self {
+        Self::from(n)
     }
     fn to_f64(self) -> f64 {
         self

@@ -116,9 +116,11 @@ pub const HARDWARE: BoardConfig = BoardConfig {
         runaway_torque: Vector2::new(1e0, 1e0),
         runaway_error: 1e-2,
         runaway_periods: 10,
-        frozen_torque: Vector2::new(3e0, 3e0),
-        frozen_periods: 20,
-        frozen_step: 1e-4,
+        count: 3.834952e-4,
+        stall_friction: Vector2::new(1e-1, 1e-1),
+        stall_margin: 5e0,
+        stall_accel: 2e-2,
+        stall_speed_error: 1e-1,
         range_min: Vector2::new(-3.1415927e0, -2.8e0),
         range_max: Vector2::new(3.1415927e0, 2.8e0),
         stop_accel: Vector2::new(1e1, 1e1),
@@ -154,7 +156,7 @@ pub const HARDWARE: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`HARDWARE`], the handshake's `params_hash`.
-pub const HARDWARE_HASH: u32 = 0xe4342493;
+pub const HARDWARE_HASH: u32 = 0xc084b642;
 
 /// Everything the QEMU board boots with (`flexarm_machine::BoardConfig::for_board` on this
 /// model): its hash is [`QEMU_HASH`].
@@ -188,9 +190,11 @@ pub const QEMU: BoardConfig = BoardConfig {
         runaway_torque: Vector2::new(1e0, 1e0),
         runaway_error: 2.205e-2,
         runaway_periods: 2,
-        frozen_torque: Vector2::new(3e0, 3e0),
-        frozen_periods: 3,
-        frozen_step: 1e-3,
+        count: 3.834952e-4,
+        stall_friction: Vector2::new(1e-1, 1e-1),
+        stall_margin: 5e0,
+        stall_accel: 2e-2,
+        stall_speed_error: 1e0,
         range_min: Vector2::new(-3.1415927e0, -2.8e0),
         range_max: Vector2::new(3.1415927e0, 2.8e0),
         stop_accel: Vector2::new(1e1, 1e1),
@@ -226,4 +230,4 @@ pub const QEMU: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`QEMU`], the handshake's `params_hash`.
-pub const QEMU_HASH: u32 = 0x5b0e89e3;
+pub const QEMU_HASH: u32 = 0x7b199189;

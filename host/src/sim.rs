@@ -22,7 +22,7 @@ use flexarm_core::control::ppf::{Ppf, PpfGains};
 use flexarm_core::controller::Controller;
 use flexarm_core::indices::{L2Norm, TailMean};
 use flexarm_core::model::Model;
-use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
+use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict, predicted};
 use flexarm_core::observer::{NoiseModel, design, film_map};
 use flexarm_core::params::{ArmParams, Gains, Limits, ParamError};
 use flexarm_core::time::Ticks;
@@ -398,9 +398,10 @@ pub struct Summary {
     /// The largest tracking error the motion checks saw, `|θ_measured − θ_d|` [rad], and the
     /// largest estimated joint speed [rad/s]: the evidence for their thresholds.
     pub motion_peaks: (f64, f64),
-    /// The longest streaks the trend checks counted, `(runaway, frozen)` over both joints
-    /// [motor periods]: a healthy run's must stay short of the windows.
-    pub motion_streaks: (u32, u32),
+    /// How far the trend checks got: the runaway check's longest streak over both joints
+    /// [motor periods], and the stall check's largest share of a window
+    /// (`MotionMonitor::stall_fill`): a healthy run's must stay short of the windows.
+    pub motion_streaks: (u32, f64),
 }
 
 /// A piezo law of issue 35 with its gains ([`SimConfig::piezo_law`]).
@@ -794,7 +795,7 @@ fn watch(
     t: f64,
     dt: f64,
 ) {
-    let verdict = monitor.check(limits, s);
+    let verdict = monitor.check(limits, s, dt as f32);
     monitor.update_heat(limits, s.tau, dt as f32);
     if let (Verdict::Trip(f) | Verdict::Stop(f), None) = (verdict, sum.motion_trip) {
         sum.motion_trip = Some((f, t));
@@ -802,11 +803,12 @@ fn watch(
     let e = f64::from((s.theta - s.theta_d).abs().max());
     let v = f64::from(s.speed.abs().max());
     sum.motion_peaks = (sum.motion_peaks.0.max(e), sum.motion_peaks.1.max(v));
-    let (runaway, frozen) = monitor.streaks();
-    let longest = |s: [u32; 2]| s[0].max(s[1]);
+    let runaway = monitor.streaks();
     sum.motion_streaks = (
-        sum.motion_streaks.0.max(longest(runaway)),
-        sum.motion_streaks.1.max(longest(frozen)),
+        sum.motion_streaks.0.max(runaway[0].max(runaway[1])),
+        sum.motion_streaks
+            .1
+            .max(f64::from(monitor.stall_fill(limits, dt as f32))),
     );
 }
 
@@ -1019,11 +1021,15 @@ fn run_firmware(
         }
         let ctrl = &rig.control.ctrl;
         let theta_d = p.q.xy() - p.error;
+        let qd = ctrl.estimate().1;
+        let (accel, inertia_inv) = predicted(&ctrl.motor.model, &p.q, &qd, p.command.tau);
         let sample = MotionSample {
             theta: p.y.theta,
             theta_d,
-            speed: ctrl.estimate().1.xy(),
+            speed: qd.xy(),
             tau: p.command.tau,
+            accel,
+            inertia_inv,
         };
         watch(
             &mut sum,
@@ -1124,11 +1130,15 @@ fn run_paper(
                     &target,
                 )
                 .map_err(|fault| SimError::Fault { fault, t })?;
+            let (q32, qd32) = (seen.q.cast::<f32>(), seen.qd.cast::<f32>());
+            let (accel, inertia_inv) = predicted(&motor.model, &q32, &qd32, out.tau);
             let sample = MotionSample {
-                theta: Vector2::new(seen.q.x, seen.q.y).cast::<f32>(),
+                theta: q32.xy(),
                 theta_d: target.q,
-                speed: Vector2::new(seen.qd.x, seen.qd.y).cast::<f32>(),
+                speed: qd32.xy(),
                 tau: out.tau,
+                accel,
+                inertia_inv,
             };
             watch(&mut sum, &mut monitor, &motion, &sample, t, motor_dt);
             tau = out.tau.cast::<f64>();

@@ -278,8 +278,11 @@ impl BoardConfig {
         x(c.runaway_speed);
         v2(&mut x, &c.runaway_torque);
         x(c.runaway_error);
-        v2(&mut x, &c.frozen_torque);
-        x(c.frozen_step);
+        x(c.count);
+        v2(&mut x, &c.stall_friction);
+        for v in [c.stall_margin, c.stall_accel, c.stall_speed_error] {
+            x(v);
+        }
         for v in [c.range_min, c.range_max, c.stop_accel] {
             v2(&mut x, &v);
         }
@@ -303,7 +306,6 @@ impl BoardConfig {
             self.board as u32,
             self.law as u32,
             c.runaway_periods,
-            c.frozen_periods,
             self.piezo_hz,
             self.motor_divider,
             self.print_every,

@@ -168,12 +168,13 @@ fn a_stall_against_an_obstacle_is_cut_within_40_ms() {
     assert!((b.theta().x - 0.3).abs() < 1e-3);
 }
 
-/// The following-error check alone (the frozen-encoder check off): the same obstacle trips it
-/// once joint 1 is 0.05 rad behind.
+/// The following-error check alone (the stall check off): the same obstacle trips it once
+/// joint 1 is 0.05 rad behind.
 #[test]
 fn the_following_error_trips_at_its_limit() {
     let mut b = Bench::new();
-    b.rig.drive.motion.frozen_periods = u32::MAX;
+    b.rig.drive.motion.stall_margin = f32::INFINITY;
+    b.rig.drive.motion.stall_speed_error = f32::INFINITY;
     b.rig.board.injection = Injection::Wall(0.3);
     b.rig.arm().unwrap();
     b.rig.start(&trapezoid([1.0, 1.0], 2.0, 0.5)).unwrap();
@@ -370,54 +371,90 @@ fn the_checks_see_the_steps_own_reference() {
     assert!(worst < 1e-5, "{worst}");
 }
 
-/// The trend checks' windows at the QEMU board's 100 Hz, on samples fed to the monitor: one
+/// The runaway check's window at the QEMU board's 100 Hz, on samples fed to the monitor: one
 /// period of a joint speeding up against its torque does not trip (at one period's window the
-/// link session's circle tripped on the firmware), two do; a reading that stands still under
-/// a torque counts only while the reference moves (a joint turning round with its reference
-/// stays on one count for tens of milliseconds), and trips on the third period.
+/// link session's circle tripped on the firmware), two do.
 #[test]
-fn the_trend_checks_judge_trends_not_samples() {
-    use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
+fn the_runaway_check_judges_trends_not_samples() {
+    use flexarm_core::motion::{MotionLimits, MotionMonitor, Verdict};
     let l = MotionLimits::<f32>::default_for(100);
-    assert_eq!((l.runaway_periods, l.frozen_periods), (2, 3));
+    assert_eq!(l.runaway_periods, 2);
     // The runaway's error threshold grows as K_p shrinks on a slow loop (0.01 rad from the
     // velocity loop's 220.5 Hz up).
     let scale = flexarm_core::params::gain_scale(100) as f32;
     assert!((l.runaway_error - 0.01 / scale).abs() < 1e-7 && l.runaway_error > 0.022);
     assert_eq!(MotionLimits::<f32>::default_for(1000).runaway_error, 0.01);
-    let sample = |theta: f32, theta_d: f32, speed: f32, tau: f32| MotionSample {
+    // Runaway: 0.03 rad off, speeding up from 0.3 rad/s against −2 N·m; 0.02 rad off is
+    // within a 100 Hz loop's tracking.
+    let sample = |theta, speed, tau| sample_of(theta, 0.0, speed, tau, 0.0);
+    let mut m = MotionMonitor::new();
+    let calm = sample(0.0, 0.0, 0.0);
+    let runaway = |v: f32| sample(0.03, v, -2.0);
+    let near = |v: f32| sample(0.02, v, -2.0);
+    for v in [0.3, 0.4, 0.5, 0.6] {
+        assert_eq!(m.check(&l, &near(v), 0.01), Verdict::Clear);
+    }
+    for s in [calm, runaway(0.3), calm, runaway(0.3)] {
+        assert_eq!(m.check(&l, &s, 0.01), Verdict::Clear);
+    }
+    assert_eq!(
+        m.check(&l, &runaway(0.4), 0.01),
+        Verdict::Trip(Fault::Runaway)
+    );
+}
+
+/// A sample of joint 1 (joint 2 still, at rest): reading `theta`, reference `theta_d`, the
+/// observer's speed, the torque, the model's acceleration; the hubs' inverse inertia 2/(kg·m²).
+fn sample_of(
+    theta: f32,
+    theta_d: f32,
+    speed: f32,
+    tau: f32,
+    accel: f32,
+) -> flexarm_core::motion::MotionSample<f32> {
+    flexarm_core::motion::MotionSample {
         theta: Vector2::new(theta, 0.0),
         theta_d: Vector2::new(theta_d, 0.0),
         speed: Vector2::new(speed, 0.0),
         tau: Vector2::new(tau, 0.0),
+        accel: Vector2::new(accel, 0.0),
+        inertia_inv: flexarm_core::Matrix2::identity() * 2.0,
+    }
+}
+
+/// The stall check's two bounds (`flexarm_core::motion`, module docs) at 1 kHz, on samples fed
+/// to the monitor with the reading still:
+/// - the model's acceleration 4 rad/s² less the friction allowance (0.1 N·m through 2/(kg·m²))
+///   over the margin 5 is 0.76 rad/s², on level `0.02·2⁵ = 0.64`: it trips once
+///   `0.64 (nT)² ≥ 8c`, at the 70th period of the stay (`sqrt(8c/0.64)` = 69.2 ms), and not
+///   before; an acceleration that turns round restarts it; one the friction explains never
+///   trips;
+/// - the observer at 0.5 rad/s with the torques pushing on: its travel less 0.1 rad/s of speed
+///   error covers three counts in the third period of the stay; braking, it does not count.
+#[test]
+fn the_stall_check_trips_where_the_physics_says() {
+    use flexarm_core::motion::{MotionLimits, MotionMonitor, Verdict};
+    let l = MotionLimits::<f32>::default_for(1000);
+    // The index of the first sample that is not clear, and its verdict.
+    let run = |n: usize, sample: &dyn Fn(usize) -> flexarm_core::motion::MotionSample<f32>| {
+        let mut m = MotionMonitor::new();
+        (0..n).find_map(|k| match m.check(&l, &sample(k), 1e-3) {
+            Verdict::Clear => None,
+            v => Some((k, v)),
+        })
     };
-    // Runaway: 0.03 rad off, speeding up from 0.3 rad/s against −2 N·m; 0.02 rad off is
-    // within a 100 Hz loop's tracking.
+    let stall = |k| Some((k, Verdict::Trip(Fault::FrozenEncoder)));
+    // The first sample has no previous: the stay's first period is the second.
+    assert_eq!(run(200, &|_| sample_of(0.1, 0.1, 0.0, 2.0, 4.0)), stall(70));
+    let turning = |k| sample_of(0.1, 0.1, 0.0, 2.0, if k < 50 { 4.0 } else { -4.0 });
+    assert_eq!(run(200, &turning), stall(50 + 70));
+    assert_eq!(run(5000, &|_| sample_of(0.1, 0.1, 0.0, 0.1, 0.2)), None);
     let mut m = MotionMonitor::new();
-    let calm = sample(0.0, 0.0, 0.0, 0.0);
-    let runaway = |v: f32| sample(0.03, 0.0, v, -2.0);
-    let near = |v: f32| sample(0.02, 0.0, v, -2.0);
-    for v in [0.3, 0.4, 0.5, 0.6] {
-        assert_eq!(m.check(&l, &near(v)), Verdict::Clear);
+    for k in 0..4 {
+        let v = m.check(&l, &sample_of(0.1, 0.1, 0.5, 1.0, 0.01), 1e-3);
+        assert_eq!(v == Verdict::Trip(Fault::FrozenEncoder), k == 3, "{k}");
     }
-    assert_eq!(m.check(&l, &calm), Verdict::Clear);
-    assert_eq!(m.check(&l, &runaway(0.3)), Verdict::Clear);
-    assert_eq!(m.check(&l, &calm), Verdict::Clear);
-    assert_eq!(m.check(&l, &runaway(0.3)), Verdict::Clear);
-    assert_eq!(m.check(&l, &runaway(0.4)), Verdict::Trip(Fault::Runaway));
-    // Frozen: 4 N·m, the reading still; the reference still, then moving at 0.2 rad/s.
-    let mut m = MotionMonitor::new();
-    for _ in 0..10 {
-        assert_eq!(m.check(&l, &sample(0.1, 0.1, 0.0, 4.0)), Verdict::Clear);
-    }
-    let moving = |k: f32| sample(0.1, 0.1 + 0.002 * k, 0.0, 4.0);
-    for k in 1..3 {
-        assert_eq!(m.check(&l, &moving(k as f32)), Verdict::Clear);
-    }
-    assert_eq!(
-        m.check(&l, &moving(3.0)),
-        Verdict::Trip(Fault::FrozenEncoder)
-    );
+    assert_eq!(run(200, &|_| sample_of(0.1, 0.1, 0.5, -1.0, -0.01)), None);
 }
 
 /// When two category-0 checks trip in one period the more direct diagnosis names the fault,
@@ -431,15 +468,35 @@ fn a_runaway_is_named_before_the_frozen_reading_it_causes() {
     let sample = |k: f32| MotionSample {
         theta: Vector2::new(0.5, 0.03),
         theta_d: Vector2::new(0.5 + 0.002 * k, 0.0),
-        // 0, 0.1, 0.3, 0.6 rad/s: joint 2 counts from the third sample, joint 1 from the second.
+        // 0, 0.1, 0.3, 0.6 rad/s: joint 2 counts from the third sample.
         speed: Vector2::new(0.0, 0.05 * k * (k - 1.0)),
         tau: Vector2::new(4.0, -2.0),
+        // Joint 1's reading stays under 40 rad/s² (8 rad/s² over the margin): its stall
+        // window at the level 5.12 rad/s² is 24.5 ms, three periods from the second sample.
+        accel: Vector2::new(40.0, -4.0),
+        inertia_inv: flexarm_core::Matrix2::identity(),
     };
     for k in 1..4 {
-        assert_eq!(m.check(&l, &sample(k as f32)), Verdict::Clear);
+        assert_eq!(m.check(&l, &sample(k as f32), 0.01), Verdict::Clear);
     }
-    assert_eq!(m.check(&l, &sample(4.0)), Verdict::Trip(Fault::Runaway));
-    assert_eq!(m.streaks(), ([0, 2], [3, 0]));
+    assert_eq!(
+        m.check(&l, &sample(4.0), 0.01),
+        Verdict::Trip(Fault::Runaway)
+    );
+    assert_eq!(m.streaks(), [0, 2]);
+    // Without the runaway check, the same period names the stall.
+    let l = MotionLimits {
+        runaway_periods: u32::MAX,
+        ..l
+    };
+    let mut m = MotionMonitor::new();
+    for k in 1..4 {
+        assert_eq!(m.check(&l, &sample(k as f32), 0.01), Verdict::Clear);
+    }
+    assert_eq!(
+        m.check(&l, &sample(4.0), 0.01),
+        Verdict::Trip(Fault::FrozenEncoder)
+    );
 }
 
 mod nominal {

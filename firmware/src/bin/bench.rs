@@ -31,7 +31,7 @@ use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::control::tracking::eq7_torques;
 use flexarm_core::controller::Controller;
 use flexarm_core::model::Model;
-use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
+use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict, predicted};
 use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::params::{ArmParams, Gains, Limits};
@@ -279,16 +279,28 @@ fn call_piezo_step(c: &mut Controller<f32>, v_f: &f32) -> (f32, u32) {
 }
 
 /// The motion checks of one motor period (`flexarm_core::motion`, run by the drive after the
-/// motor step): every check and the I²t update, on the state's angles, reference and speeds.
+/// motor step): the model's predicted accelerations for the stall check, every check and the
+/// I²t update, on the state's angles, reference and speeds.
 #[inline(never)]
 fn call_motion(
     m: &mut MotionMonitor<f32>,
     l: &MotionLimits<f32>,
-    s: &MotionSample<f32>,
+    model: &Model<f32>,
+    s: &State,
 ) -> (f32, u32) {
-    timed((m, l, s), |(m, l, s)| {
-        let v = m.check(l, s);
-        m.update_heat(l, s.tau, 1e-3);
+    timed(((m, l), model, s), |((m, l), model, s)| {
+        let tau = Vector2::new(s.qd.x, -s.qd.y);
+        let (accel, inertia_inv) = predicted(model, &s.q, &s.qd, tau);
+        let sample = MotionSample {
+            theta: Vector2::new(s.q.x, s.q.y),
+            theta_d: s.target.q,
+            speed: Vector2::new(s.qd.x, s.qd.y),
+            tau,
+            accel,
+            inertia_inv,
+        };
+        let v = m.check(l, &sample, 1e-3);
+        m.update_heat(l, tau, 1e-3);
         if v == Verdict::Clear { m.heat.x } else { -1.0 }
     })
 }
@@ -582,13 +594,7 @@ fn main() -> ! {
         let limits = MotionLimits::default_for(1000);
         let mut monitor = MotionMonitor::new();
         let motion = measure(states, overhead, |s| {
-            let sample = MotionSample {
-                theta: Vector2::new(s.q.x, s.q.y),
-                theta_d: s.target.q,
-                speed: Vector2::new(s.qd.x, s.qd.y),
-                tau: Vector2::new(s.qd.x, -s.qd.y),
-            };
-            call_motion(black_box(&mut monitor), black_box(&limits), &sample)
+            call_motion(black_box(&mut monitor), black_box(&limits), &model, s)
         });
         ok &= report(
             set,
