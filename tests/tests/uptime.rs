@@ -1,5 +1,11 @@
 //! The time base: a move started after days of uptime runs exactly like one started at boot,
-//! on the host's rig of the hardware board's firmware (`flexarm_host::rig`).
+//! on the host's rig of the hardware board's firmware (`flexarm_host::rig`), through the drive
+//! (`Drive::step` samples the move at `Drive::time`). The counters' wraps fall 1 s into the
+//! paper's 2 s move, at its peak speed: a wrap after the move's end would not show a time base
+//! that jumps there, since the reference then holds the end pose whatever the time. A build
+//! whose time base jumps half a second at the `u64` wrap (`--features
+//! flexarm-core/mutant-wrap-jump`) must fail `a_move_started_after_any_uptime_gives_the_same_torques_to_the_bit`
+//! (scripts/qemu-uptime runs it and requires the failure).
 
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)] // tests may index and unwrap
 
@@ -15,9 +21,10 @@ const MOTOR_HZ: u32 = 1000;
 const DAY: u64 = 86_400 * MOTOR_HZ as u64;
 
 /// The paper's move (to (π/2, π/2) in 2 s) under Eq. 16 on the simulated arm, the hardware
-/// board's firmware booted at tick `start`, the move started at once. Returns every torque
-/// command's bits, 6 s of them.
-fn run(start: u64) -> Vec<[u32; 2]> {
+/// board's firmware booted at tick `start`, the move started at once. Returns, for 6 s of motor
+/// periods, the drive's move time and every torque command, as bits, and the latched fault's
+/// number (0: none).
+fn run(start: u64) -> Vec<[u32; 4]> {
     let cfg = flexarm_machine::BoardConfig {
         law: MotorLaw::Robust,
         ..firmware(Board::Hardware)
@@ -36,26 +43,55 @@ fn run(start: u64) -> Vec<[u32; 2]> {
         move_time: paper.profile.duration(),
         ramp_time: paper.profile.ramp(),
     };
+    assert_eq!(request_duration(&request), 2.0);
     rig.start(&request).unwrap();
     (0..6000)
         .map(|_| {
             let p = rig.period();
-            assert!(p.fault.is_none(), "fault at tick {}", p.tick.0);
-            [p.command.tau.x.to_bits(), p.command.tau.y.to_bits()]
+            [
+                rig.drive.time(p.tick).to_bits(),
+                p.command.tau.x.to_bits(),
+                p.command.tau.y.to_bits(),
+                p.fault.map_or(0, |f| f as u32),
+            ]
         })
         .collect()
+}
+
+fn request_duration(r: &flexarm_core::drive::MoveRequest<f32>) -> f32 {
+    match *r {
+        flexarm_core::drive::MoveRequest::Trapezoid { move_time, .. } => move_time,
+        _ => f32::NAN,
+    }
 }
 
 #[test]
 fn a_move_started_after_any_uptime_gives_the_same_torques_to_the_bit() {
     let reference = run(0);
+    assert!(
+        reference.iter().all(|r| r[3] == 0),
+        "the run from tick 0 faulted"
+    );
     for start in [
         DAY,
-        4_294_967_296 - 3000, // a u32 count of periods would wrap 3 s into the move (49.7 days)
+        4_294_967_296 - 1000, // a u32 count of periods would wrap 1 s into the move (49.7 days)
         3652 * DAY,           // ten years
-        u64::MAX - 3000,      // the u64 count wraps 3 s into the move
+        u64::MAX - 999,       // the u64 count wraps 1 s into the 2 s move, at its peak speed
     ] {
-        assert!(run(start) == reference, "start at tick {start}");
+        let r = run(start);
+        if let Some(k) = (0..r.len()).find(|&k| r[k] != reference[k]) {
+            panic!(
+                "start at tick {start}: period {k} differs (move time {} s, torques {:?} N·m, fault {}; from tick 0: {} s, {:?} N·m)",
+                f32::from_bits(r[k][0]),
+                [f32::from_bits(r[k][1]), f32::from_bits(r[k][2])],
+                r[k][3],
+                f32::from_bits(reference[k][0]),
+                [
+                    f32::from_bits(reference[k][1]),
+                    f32::from_bits(reference[k][2])
+                ]
+            );
+        }
     }
 }
 
