@@ -46,7 +46,7 @@ pub struct Rig<B> {
     /// The link session.
     pub session: Session,
     snapshot: Box<Snapshot>,
-    /// The clock the records' times count from (the boot's).
+    /// The boot's clock: the time `Board::motor_period` gets (the QEMU board's verdict runs).
     clock: MoveClock,
     /// The records the motor loop queued and nobody took yet (at most [`QUEUE`]).
     queue: std::collections::VecDeque<Record>,

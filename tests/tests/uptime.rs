@@ -122,3 +122,101 @@ fn elapsed_time_saturates_past_any_move_and_wraps_with_the_counter() {
     assert_eq!(c.start(), Ticks(u64::MAX - 1));
     assert_eq!(Ticks(u64::MAX).next(), Ticks(0));
 }
+
+/// The overflow table's figures for the link's counters (docs/firmware.md, "Time base"), from
+/// what they count: the receive byte counter (`u32`) at most at the line's full rate, 921 600
+/// baud 8N1 (`flexarm_machine::session::BAUD`), 92 160 bytes a second; the telemetry sequence
+/// number (`u32`) and the telemetry drops (`u32`, saturating) at most one a motor period, 1 kHz
+/// on the hardware board, as a stream of every channel at decimation 1 (accepted: it fits the
+/// line) shows: one frame a period, and with nobody taking the frames, once the 64-record queue
+/// is full, one record dropped a period.
+#[test]
+fn the_link_counters_overflow_when_the_table_says() {
+    use flexarm_link::Command;
+    use flexarm_link::msg::{Channels, Reply};
+    let hw = firmware(Board::Hardware);
+    let rx_hours = 2f64.powi(32) / (f64::from(flexarm_machine::session::BAUD) / 10.0) / 3600.0;
+    let mut rig = flexarm_tests::rig(hw, [0.0, 0.0]);
+    let subscribe = Command::Subscribe {
+        decimation: 1,
+        channels: Channels(Channels::ALL),
+    };
+    assert_eq!(rig.answer(subscribe), Reply::Done);
+    for _ in 0..1000 {
+        rig.period();
+    }
+    let dropped = match rig.answer(Command::Status) {
+        Reply::Status(s) => s.telemetry_dropped,
+        r => panic!("{r:?}"),
+    };
+    let frames: Vec<u32> = rig
+        .take()
+        .into_iter()
+        .filter_map(|(_, t)| t.map(|t| t.seq))
+        .collect();
+    let per_second = f64::from(dropped) + frames.len() as f64;
+    let days = |rate: f64| 2f64.powi(32) / rate / 86_400.0;
+    println!(
+        "receive bytes: {rx_hours:.2} h at the full line rate; telemetry: {per_second} records in 1 s at {} Hz ({} frames queued, {dropped} dropped): sequence number and drops {:.1} days",
+        hw.motor_hz(),
+        frames.len(),
+        days(per_second)
+    );
+    assert!((rx_hours - 12.95).abs() < 0.01, "{rx_hours}");
+    assert_eq!(frames.len(), flexarm_host::rig::QUEUE);
+    assert_eq!(per_second, f64::from(hw.motor_hz()));
+    assert!((days(per_second) - 49.7).abs() < 0.05);
+}
+
+/// The telemetry records' `t` is the move time (`Period::t`, `Drive::time`), not uptime: 0 at
+/// the period a move starts, one motor period more each period, whatever the tick count at
+/// boot (here 1000 periods before the `u64` wrap, which falls inside the hold before the move).
+#[test]
+fn telemetry_time_is_the_move_time() {
+    use flexarm_link::Command;
+    use flexarm_link::msg::{Channels, Reply};
+    use flexarm_machine::Record;
+    for boot in [0, u64::MAX - 999] {
+        let cfg = firmware(Board::Hardware);
+        let arm = SimulatedArm::paper(
+            cfg.patch,
+            flexarm_core::Vector4::zeros(),
+            cfg.piezo_period(),
+        );
+        let mut rig = Rig::new(cfg, arm, Ticks(boot));
+        flexarm_tests::declared(&mut rig);
+        let subscribe = Command::Subscribe {
+            decimation: 1,
+            channels: Channels(Channels::ERROR),
+        };
+        assert_eq!(rig.answer(subscribe), Reply::Done);
+        rig.arm().unwrap();
+        for _ in 0..1500 {
+            rig.period();
+        }
+        let _ = rig.take();
+        let start = rig.drive.next_tick();
+        rig.start(&flexarm_core::drive::MoveRequest::Trapezoid {
+            target: flexarm_core::Vector2::new(0.5, 0.5),
+            move_time: 1.0,
+            ramp_time: 0.25,
+        })
+        .unwrap();
+        for _ in 0..50 {
+            rig.period();
+        }
+        let times: Vec<(u64, f32)> = rig
+            .take()
+            .into_iter()
+            .filter_map(|(r, _)| match r {
+                Record::Sample { tick, t, .. } => Some((tick, t)),
+                Record::Fault { .. } => None,
+            })
+            .collect();
+        assert_eq!(times.len(), 50);
+        for (tick, t) in times {
+            let k = tick.wrapping_sub(start.0);
+            assert_eq!(t, k as f32 / 1000.0, "boot {boot}, tick {tick}");
+        }
+    }
+}
