@@ -235,6 +235,7 @@ fn the_panels_show_the_latest_values_and_the_state() {
     ));
     let s = screen(&view);
     assert!(s.contains("mode: FAULT (safe state)"), "{s}");
+    assert!(s.contains("brake: engaged"), "{s}");
     assert!(
         s.contains(flexarm_core::Fault::Runaway.as_str()),
         "the fault's name in\n{s}"
