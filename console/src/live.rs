@@ -5,8 +5,8 @@
 //! tracking errors `θ − θ_d` [mrad], the vibration (the estimated modal coordinates `δ̂`
 //! [√kg·m ×10⁻³] and the tip deflection `w(l₂)` [mm] computed from them with the paper's model),
 //! the piezo command `V_a` and film voltage `V_f` [V], the motor torques `τ` [N·m]; a line with
-//! the mode, the latched fault and the link's counters; the two loops' loads with their deadline
-//! misses. Keys, read between every two reads of the line, so they work whatever the firmware
+//! the mode, the brake, the latched fault and the link's counters; the two loops' loads with
+//! their deadline misses. Keys, read between every two reads of the line, so they work whatever the firmware
 //! streams: `s` stop (category 1), `e` or space the emergency stop (category 0), `q`, Esc or
 //! Ctrl-C leave (a running move is stopped first, as on Ctrl-C elsewhere).
 //!
@@ -326,10 +326,15 @@ impl View {
         let (dropped, stops) = self
             .status
             .map_or((0, 0), |s| (s.telemetry_dropped, s.link_stops));
+        let brake = match self.status.map(|s| s.brake_engaged) {
+            None => "…",
+            Some(true) => "engaged",
+            Some(false) => "released",
+        };
         let line = Line::from(vec![
             Span::raw(" mode: "),
             Span::styled(mode, Style::new().fg(colour).bold()),
-            Span::raw(format!("   fault: {fault}")),
+            Span::raw(format!("   brake: {brake}   fault: {fault}")),
             Span::raw(format!(
                 "   frames {}, lost {}, dropped {}, watchdog stops {}",
                 self.frames, self.lost, dropped, stops

@@ -1044,6 +1044,14 @@ fn print_status(s: &Status) {
     };
     println!("mode: {mode}");
     println!(
+        "brake: {}",
+        if s.brake_engaged {
+            "engaged (the joints held)"
+        } else {
+            "released (the amplifiers drive the joints)"
+        }
+    );
+    println!(
         "homing: joint 1 {}, joint 2 {}{}",
         home_state(s.homing[0]),
         home_state(s.homing[1]),

@@ -79,6 +79,7 @@ fn ours(c: &Command) -> Option<Reply> {
             stack_used: 1700,
             homing: [HomeState::Homed; 2],
             homing_failed: false,
+            brake_engaged: true,
         }),
         Command::Arm => Reply::Done,
         Command::Get(_) => Reply::Value(30.0),
@@ -105,6 +106,10 @@ fn status_in(mode: Mode, link_stops: u32) -> Status {
         stack_used: 0,
         homing: [HomeState::Homed; 2],
         homing_failed: false,
+        brake_engaged: !matches!(
+            mode,
+            Mode::Armed | Mode::Moving | Mode::Stopping | Mode::Homing
+        ),
     }
 }
 
@@ -147,6 +152,7 @@ fn status_names_the_fault_and_the_counters() {
     );
     assert!(out.contains("mode: FAULT"), "{out}");
     assert!(out.contains("fault: 13 (joint runaway"), "{out}");
+    assert!(out.contains("brake: engaged"), "{out}");
     assert!(out.contains("stack 1700 bytes"), "{out}");
 }
 

@@ -140,6 +140,7 @@ fn status(mode: Mode, fault: Option<u8>) -> Status {
         stack_used: 0,
         homing: [HomeState::Homed; 2],
         homing_failed: false,
+        brake_engaged: true,
     }
 }
 
@@ -148,6 +149,7 @@ fn frame(seq: u32, tick: u64, v: [f32; 12]) -> Telemetry {
     Telemetry {
         seq,
         tick,
+        brake_engaged: false,
         channels: Channels(Channels::ALL),
         values: heapless::Vec::from_slice(&v).unwrap(),
     }
@@ -233,6 +235,7 @@ fn the_panels_show_the_latest_values_and_the_state() {
     ));
     let s = screen(&view);
     assert!(s.contains("mode: FAULT (safe state)"), "{s}");
+    assert!(s.contains("brake: engaged"), "{s}");
     assert!(
         s.contains(flexarm_core::Fault::Runaway.as_str()),
         "the fault's name in\n{s}"

@@ -54,6 +54,15 @@ impl MoveClock {
     /// any move, where the reference no longer depends on time.
     pub const fn elapsed(&self, now: Ticks) -> u32 {
         let n = now.0.wrapping_sub(self.start.0);
+        // The mutant the wrap tests must reject (feature `mutant-wrap-jump`, never in a
+        // product build): a time base that jumps half a second forward once the count has
+        // wrapped since the start.
+        #[cfg(feature = "mutant-wrap-jump")]
+        let n = if now.0 < self.start.0 {
+            n.wrapping_add(self.rate_hz as u64 / 2)
+        } else {
+            n
+        };
         if n > u32::MAX as u64 {
             u32::MAX
         } else {

@@ -64,7 +64,9 @@ pub fn qemu_patch() -> PiezoPatch<f32> {
 
 /// The motor loop's tick count at boot: 0, except in the uptime test builds.
 pub const START_TICK: Ticks = Ticks(if cfg!(feature = "start-before-wrap") {
-    u64::MAX - 299
+    // The wrap 1 s into the 2 s boot move, at its peak speed (issue 33: after the move's end a
+    // time base that jumps at the wrap would not show).
+    u64::MAX - 99
 } else if cfg!(feature = "start-at-30-days") {
     30 * 86_400 * MOTOR_HZ as u64
 } else {

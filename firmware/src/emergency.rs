@@ -19,8 +19,8 @@ use core::sync::atomic::{Ordering::SeqCst, compiler_fence};
 
 use flexarm_core::Fault;
 
-/// Masks interrupts and forces the safe outputs: amplifiers disabled, both motor commands at
-/// 50 % duty (zero torque), the piezo command at mid-scale (0 V).
+/// Masks interrupts and forces the safe outputs: amplifiers disabled, brakes engaged, both
+/// motor commands at 50 % duty (zero torque), the piezo command at mid-scale (0 V).
 #[inline(always)]
 pub fn stop_outputs() {
     cortex_m::interrupt::disable();
@@ -32,23 +32,24 @@ pub fn stop_outputs() {
 #[cfg(feature = "hw")]
 #[inline(never)]
 pub fn force_safe_outputs() {
-    use crate::board::hw::{DAC_MID, ENABLE_PIN};
+    use crate::board::hw::{BRAKE_PIN, DAC_MID, ENABLE_PIN};
     use stm32f4::stm32f405::{DAC, GPIOB, RCC, TIM12};
     // SAFETY: plain writes to documented fields, valid in any state of the peripherals: with a
     // peripheral's clock off its writes are ignored, and the GPIOB clock is turned on first.
     // Nothing else runs meanwhile (interrupts are masked, or this is the first line of `init`).
     unsafe {
         let (rcc, gpiob) = (&*RCC::ptr(), &*GPIOB::ptr());
-        // GPIOB clock on (AHB1ENR bit 1), then the enable pin low (BSRR reset bit), then the
-        // pin an output (MODER = 0b01), so that it is driven low the moment it drives.
+        // GPIOB clock on (AHB1ENR bit 1), then the enable and brake-release pins low (BSRR
+        // reset bits, one store), then the pins outputs (MODER = 0b01), so that they are
+        // driven low the moment they drive: amplifiers off, brakes engaged.
         rcc.ahb1enr().modify(|r, w| w.bits(r.bits() | (1 << 1)));
-        gpiob
-            .bsrr()
-            .write(|w| w.bits(1 << (16 + u32::from(ENABLE_PIN))));
-        let shift = 2 * u32::from(ENABLE_PIN);
-        gpiob
-            .moder()
-            .modify(|r, w| w.bits((r.bits() & !(0b11 << shift)) | (0b01 << shift)));
+        gpiob.bsrr().write(|w| {
+            w.bits((1 << (16 + u32::from(ENABLE_PIN))) | (1 << (16 + u32::from(BRAKE_PIN))))
+        });
+        let (e, b) = (2 * u32::from(ENABLE_PIN), 2 * u32::from(BRAKE_PIN));
+        gpiob.moder().modify(|r, w| {
+            w.bits((r.bits() & !((0b11 << e) | (0b11 << b))) | (0b01 << e) | (0b01 << b))
+        });
         // Motor commands at 50 % duty: half the period ARR + 1.
         let tim12 = &*TIM12::ptr();
         let half = tim12.arr().read().bits().div_ceil(2);
@@ -86,9 +87,10 @@ fn stop(what: &str) -> ! {
         use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
         let o = crate::board::sim::OUTPUTS.snapshot();
         defmt::error!(
-            "{=str}: outputs forced safe: enable {=bool}, tau = ({=f32}, {=f32}) N*m, V_a = {=f32} V",
+            "{=str}: outputs forced safe: enable {=bool}, brake released {=bool}, tau = ({=f32}, {=f32}) N*m, V_a = {=f32} V",
             what,
             o.enable,
+            o.brake_release,
             o.tau[0],
             o.tau[1],
             o.v_a

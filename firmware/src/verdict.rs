@@ -66,8 +66,9 @@ impl RunCheck {
     }
 }
 
-/// Logs the figures and returns whether the run passed, given the latched fault, the enable
-/// line now and the fault recorder's fault and seal.
+/// Logs the figures and returns whether the run passed, given the latched fault, whether the
+/// outputs are live now (the enable line on or the brake released) and the fault recorder's
+/// fault and seal.
 pub fn judge(
     c: &RunCheck,
     fault: Option<Fault>,
@@ -191,6 +192,7 @@ pub fn after_reset(
         rx_line: Default::default(),
         stack_used: 0,
         loads: [flexarm_link::msg::Load::default(); 2],
+        brake_engaged: true,
     };
     let mut page =
         |from: u16| match session.answer(Command::Faults { from }, control, drive, recorder, &io) {

@@ -46,7 +46,7 @@ pub struct Rig<B> {
     /// The link session.
     pub session: Session,
     snapshot: Box<Snapshot>,
-    /// The clock the records' times count from (the boot's).
+    /// The boot's clock: the time `Board::motor_period` gets (the QEMU board's verdict runs).
     clock: MoveClock,
     /// The records the motor loop queued and nobody took yet (at most [`QUEUE`]).
     queue: std::collections::VecDeque<Record>,
@@ -114,7 +114,7 @@ impl<B: Board> Rig<B> {
             self.recorder.record(&s, p.fault);
         }
         let (queue, dropped) = (&mut self.queue, &mut self.dropped);
-        self.motor.sample(&p, t, |r| {
+        self.motor.sample(&p, |r| {
             if queue.len() < QUEUE {
                 queue.push_back(r);
             } else {
@@ -186,6 +186,7 @@ impl<B: Board> Rig<B> {
     /// by the session on the controller, the drive and the recorder.
     pub fn answer(&mut self, command: Command) -> Reply {
         let sensed = period::sense(&mut self.board);
+        let brake_engaged = self.board.brake_engaged();
         let io = Io {
             y: sensed.y,
             amplifier_fault: sensed.amplifier_fault,
@@ -196,6 +197,7 @@ impl<B: Board> Rig<B> {
             rx_line: Default::default(),
             stack_used: 0,
             loads: Default::default(),
+            brake_engaged,
         };
         match command {
             Command::Move(m) => session::start_move(
@@ -245,7 +247,8 @@ impl<B: Board> Rig<B> {
 /// A host plant as a board: its sensors (`crate::sim::Sensors`: encoders, the film's ADC and
 /// noise, a delay of one motor period, the piezo amplifier's slew rate) and its integration
 /// (`steps` plant steps of `dt` [s] per piezo period), the amplifiers cutting torque and
-/// voltage while disabled.
+/// voltage while disabled, and the joints' holding brakes, a viscous torque of
+/// [`PlantBoard::brake_damping`] while the brake output is engaged (0 by default: no brake).
 ///
 /// As on the hardware board, at the instant a motor period shares with a piezo period both
 /// loops sample the plant at that instant, the motor loop taking the piezo loop's film sample
@@ -262,6 +265,11 @@ pub struct PlantBoard {
     /// The piezo amplifier's output [V] (the command through the slew limit).
     v_a: f64,
     enabled: bool,
+    /// The brake output (`true` engaged, as at power-up).
+    brake: bool,
+    /// The holding brakes' viscous torque per joint speed while engaged [N·m·s/rad]; 0: the
+    /// plant has no brakes (the joints coast on their friction).
+    pub brake_damping: f64,
     /// The last film sample [V].
     v_f: f64,
     /// The reading the motor loop gets when the sensors are delayed: the previous period's.
@@ -286,6 +294,8 @@ impl PlantBoard {
             tau: Vector2::zeros(),
             v_a: 0.0,
             enabled: false,
+            brake: true,
+            brake_damping: 0.0,
             v_f: 0.0,
             held: None,
             owed: false,
@@ -329,10 +339,17 @@ impl PlantBoard {
         } else {
             (Vector2::zeros(), 0.0)
         };
+        let brake = if self.brake { self.brake_damping } else { 0.0 };
         for _ in 0..self.steps {
             if self.diverged.is_some() {
                 return;
             }
+            let tau = if brake > 0.0 {
+                let qd = self.plant.state().qd;
+                tau - Vector2::new(qd.x, qd.y) * brake
+            } else {
+                tau
+            };
             if self.plant.step(&tau, v_a, self.dt).is_err() {
                 self.diverged = Some(self.t);
             }
@@ -380,6 +397,12 @@ impl Board for PlantBoard {
     }
     fn set_enable(&mut self, on: bool) {
         self.enabled = on;
+    }
+    fn set_brake(&mut self, engaged: bool) {
+        self.brake = engaged;
+    }
+    fn brake_engaged(&mut self) -> bool {
+        self.brake
     }
     fn amplifier_fault(&mut self) -> bool {
         false

@@ -8,10 +8,10 @@
 //! travel, its peak speed and its coast after the fault within stated bounds; the same move
 //! without a failure runs clean.
 //!
-//! Encoders: 16384 counts a revolution. While the amplifiers are off, each joint's holding
-//! brake acts as a viscous torque of 20 N·m·s/rad. The obstacle: a spring of 10⁴ N·m/rad with
-//! 200 N·m·s/rad of damping beyond it (critically damped on joint 1's inertia; 0.3 mrad deep
-//! under the frozen-encoder check's 3 N·m).
+//! Encoders: 16384 counts a revolution. While the brake output is engaged (whenever the
+//! amplifiers are cut), each joint's holding brake acts as a viscous torque of 20 N·m·s/rad.
+//! The obstacle: a spring of 10⁴ N·m/rad with 200 N·m·s/rad of damping beyond it (critically
+//! damped on joint 1's inertia).
 
 use flexarm_core::drive::{Mode, MoveRequest};
 use flexarm_core::time::Ticks;
@@ -50,6 +50,11 @@ struct TruthBoard {
     tau: Vector2<f64>,
     v_a: f64,
     enabled: bool,
+    /// The brake output (`true` engaged).
+    brake: bool,
+    /// The brake stuck released (a broken coil driver, a worn lining): the output is written,
+    /// the joints coast on their friction.
+    brake_stuck: bool,
     /// Plant time [s].
     t: f64,
 }
@@ -89,6 +94,12 @@ impl Board for TruthBoard {
     fn set_enable(&mut self, on: bool) {
         self.enabled = on;
     }
+    fn set_brake(&mut self, engaged: bool) {
+        self.brake = engaged;
+    }
+    fn brake_engaged(&mut self) -> bool {
+        self.brake
+    }
     fn amplifier_fault(&mut self) -> bool {
         false
     }
@@ -97,8 +108,11 @@ impl Board for TruthBoard {
         let mut applied = if self.enabled {
             self.tau
         } else {
-            -Vector2::new(x.qd.x, x.qd.y) * 20.0
+            Vector2::zeros()
         };
+        if self.brake && !self.brake_stuck {
+            applied -= Vector2::new(x.qd.x, x.qd.y) * 20.0;
+        }
         if let Failure::Wall(at) = self.failure
             && x.q.x > at
         {
@@ -139,6 +153,8 @@ impl Run {
             tau: Vector2::zeros(),
             v_a: 0.0,
             enabled: false,
+            brake: true,
+            brake_stuck: false,
             t: 0.0,
         };
         Self {
@@ -497,5 +513,82 @@ fn the_familys_arms_trip_no_encoder_check() {
                 arm.name
             );
         }
+    }
+}
+
+/// How a category-0 cut comes.
+#[derive(Clone, Copy, Debug)]
+enum Cut {
+    /// Joint 2's encoder freezes at 0.8 s (`FrozenEncoder`).
+    Frozen,
+    /// Joint 1's encoder reversed at the start (`Runaway`).
+    Reversed,
+    /// The link's `Estop` (a disarm) at 1.1 s, at the move's peak speed (0.67 rad/s on both
+    /// joints).
+    Estop,
+}
+
+/// The coast after a category-0 cut during the move (0, 0) → (1, 1) rad: the largest joint
+/// travel from the cut to rest [rad] and the time to rest [s] (both joints under 0.01 rad/s;
+/// at most 20 s), with the brake working or stuck released. Asserts that the brake output is
+/// engaged from the cut on.
+fn coast_after(cut: Cut, brake_stuck: bool) -> (f64, f64) {
+    let failure = match cut {
+        Cut::Frozen => Failure::Frozen(1, 0.8),
+        Cut::Reversed => Failure::Reversed,
+        Cut::Estop => Failure::None,
+    };
+    let mut r = moving(failure, 0.0);
+    r.rig.board.brake_stuck = brake_stuck;
+    if let Cut::Estop = cut {
+        r.run(1.0);
+        assert_eq!(
+            r.rig.answer(flexarm_link::Command::Estop),
+            flexarm_link::Reply::Done
+        );
+        // A disarm, not a latched fault: the cut is the next period's.
+        r.fault_at = Some((r.t(), r.theta()));
+    }
+    while r.fault_at.is_none() && r.t() < 3.0 {
+        r.period();
+    }
+    let (t_cut, at) = r.fault_at.expect("a cut");
+    let mut rest = None;
+    while r.t() < t_cut + 20.0 {
+        r.period();
+        assert!(
+            r.rig.board.brake && !r.rig.board.enabled,
+            "brake engaged from the cut on"
+        );
+        let x = r.rig.board.plant.state();
+        if x.qd.x.abs().max(x.qd.y.abs()) < 1e-2 {
+            rest = Some(r.t() - t_cut);
+            break;
+        }
+    }
+    let coast = (r.theta() - at).abs().max();
+    (coast, rest.unwrap_or(f64::INFINITY))
+}
+
+/// The coast table of docs/safety.md ("The brake"): each category-0 cut with the holding brake
+/// and with its output stuck released. The brake must hold every coast under 0.06 rad and
+/// bring the joints to rest (0.01 rad/s) within 0.5 s; without it the arm coasts on its
+/// friction alone, several times farther.
+#[test]
+fn the_brake_shortens_the_coast_after_a_category_0_cut() {
+    for cut in [Cut::Frozen, Cut::Reversed, Cut::Estop] {
+        let (braked, t_braked) = coast_after(cut, false);
+        let (free, t_free) = coast_after(cut, true);
+        println!(
+            "{cut:?}: coast with the brake {braked:.4} rad, at rest after {t_braked:.3} s; stuck released {free:.4} rad, at rest after {t_free:.3} s"
+        );
+        assert!(
+            braked < 0.06 && t_braked < 0.5,
+            "{cut:?}: {braked} rad, {t_braked} s"
+        );
+        assert!(
+            free > 3.0 * braked,
+            "{cut:?}: {free} rad against {braked} rad"
+        );
     }
 }

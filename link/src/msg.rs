@@ -261,12 +261,13 @@ impl Channels {
 
     /// The longest frame of a [`Telemetry`] message with these channels, on the wire [bytes]:
     /// the message's tag (1), the sequence number (5 as a varint at most), the tick (7: ticks
-    /// below 2⁴⁹, 17 800 years of a 1 kHz loop), the channel bits (3), the values' count (1)
+    /// below 2⁴⁹, 17 800 years of a 1 kHz loop), the brake (1), the channel bits (3), the
+    /// values' count (1)
     /// and the values (4 each), then the CRC (4), COBS's overhead (1 for a frame under 254
     /// bytes) and the terminator (1). Tested to be exact for the largest sequence number and a
     /// tick of 2⁴⁹ − 1.
     pub const fn frame_bytes(self) -> usize {
-        1 + 5 + 7 + 3 + 1 + 4 * self.values() + 4 + 1 + 1
+        1 + 5 + 7 + 1 + 3 + 1 + 4 * self.values() + 4 + 1 + 1
     }
 
     /// Whether these channels name only known bits.
@@ -466,6 +467,9 @@ pub struct Status {
     pub homing: [HomeState; 2],
     /// The last homing search failed (travelled its limit without finding its reference).
     pub homing_failed: bool,
+    /// The joints' holding brake output (issue 33): `true` engaged (whenever the amplifiers
+    /// are cut), `false` released (only while they are enabled).
+    pub brake_engaged: bool,
 }
 
 /// One telemetry frame.
@@ -475,6 +479,9 @@ pub struct Telemetry {
     pub seq: u32,
     /// Motor period of the sample.
     pub tick: u64,
+    /// The joints' holding brake output after the sample's motor step (issue 33): `true`
+    /// engaged (the amplifiers cut), `false` released. In every frame, whatever the channels.
+    pub brake_engaged: bool,
     /// What the values are.
     pub channels: Channels,
     /// The selected channels' values, in [`Channels`] order.

@@ -132,6 +132,7 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
                     stack_used: stack,
                     homing: [HomeState::Declared; 2],
                     homing_failed: false,
+                    brake_engaged: true,
                 })
             },
         );
@@ -179,6 +180,7 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
             DeviceMsg::Telemetry(Telemetry {
                 seq,
                 tick,
+                brake_engaged: tick % 2 == 0,
                 channels: Channels(c),
                 values: heapless::Vec::from_slice(&v).unwrap(),
             })
@@ -264,6 +266,7 @@ fn the_largest_of_every_message_fits_a_frame() {
         DeviceMsg::Telemetry(Telemetry {
             seq: u32::MAX,
             tick: u64::MAX,
+            brake_engaged: true,
             channels: Channels(u16::MAX),
             values: heapless::Vec::from_slice(&[f32::MAX; MAX_CHANNELS]).unwrap(),
         }),
@@ -307,6 +310,7 @@ fn the_largest_of_every_message_fits_a_frame() {
                 stack_used: u32::MAX,
                 homing: [HomeState::Declared; 2],
                 homing_failed: false,
+                brake_engaged: true,
             }),
         },
     ];
@@ -350,10 +354,12 @@ fn a_message_by_reference_is_the_same_frame() {
         stack_used: 1800,
         homing: [HomeState::Declared; 2],
         homing_failed: false,
+        brake_engaged: true,
     });
     let t = Telemetry {
         seq: 9,
         tick: 1 << 40,
+        brake_engaged: false,
         channels: Channels(Channels::ALL),
         values: heapless::Vec::from_slice(&[1.5; 12]).unwrap(),
     };
@@ -385,6 +391,7 @@ fn telemetry_frames_are_the_size_the_firmware_budgets() {
         let msg = DeviceMsg::Telemetry(Telemetry {
             seq: u32::MAX,
             tick: (1 << 49) - 1,
+            brake_engaged: true,
             channels: Channels(u16::MAX),
             values,
         });
@@ -398,7 +405,7 @@ fn telemetry_frames_are_the_size_the_firmware_budgets() {
         all.values(),
         all.frame_bytes()
     );
-    assert_eq!((all.values(), all.frame_bytes()), (12, 71));
+    assert_eq!((all.values(), all.frame_bytes()), (12, 72));
     assert!(
         per_second >= 1000.0,
         "every channel at the board's 1 kHz motor loop"
@@ -459,6 +466,7 @@ fn telemetry_is_read_by_name_whatever_the_subset() {
         let t = Telemetry {
             seq: 0,
             tick: 0,
+            brake_engaged: true,
             channels,
             values,
         };

@@ -26,6 +26,14 @@ pub trait Board {
     fn set_piezo(&mut self, v_a: f32);
     /// Amplifier enable line (all three amplifiers).
     fn set_enable(&mut self, on: bool);
+    /// The joints' holding brakes (safe brake control, issue 33): `true` engages them. A
+    /// fail-safe brake holds unless its release line is driven, so every path that cuts the
+    /// amplifiers engages it too, and it is released only while the amplifiers are enabled
+    /// (`crate::period::actuate`).
+    fn set_brake(&mut self, engaged: bool);
+    /// The brake output as last written (`true`: engaged), read back from the output for the
+    /// link's status.
+    fn brake_engaged(&mut self) -> bool;
     /// `true` while an amplifier reports a fault.
     fn amplifier_fault(&mut self) -> bool;
     /// The homing inputs (issue 33, `flexarm_core::homing`): per joint, the encoder reading

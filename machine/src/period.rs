@@ -14,7 +14,7 @@
 //! 2. [`motor_step`] on the [`MotorLoop`], the [`Control`] and the drive: the fault line's
 //!    monitor, the drive's step (checks, observer, law, motion checks, derating, stops), the
 //!    bias's end, the telemetry's decimations;
-//! 3. [`actuate`] on the board: torques and the enable line;
+//! 3. [`actuate`] on the board: torques, the enable line and the brake;
 //! 4. [`recorded`] and the fault recorder;
 //! 5. [`MotorLoop::sample`]: the telemetry records of the period.
 //!
@@ -134,6 +134,10 @@ pub struct MotorLoop {
 pub struct Period {
     /// Its tick.
     pub tick: Ticks,
+    /// The move time of the period [s] (`Drive::time`): since the start of the move, stop,
+    /// search or hold that runs (or ran last, disarmed), from the integer tick difference, so
+    /// it is the same after any uptime. What the telemetry records carry.
+    pub t: f32,
     /// The measurement it ran on, in the arm's frame (`Drive::arm_frame`).
     pub y: Measurement<f32>,
     /// What goes to the amplifiers.
@@ -172,10 +176,11 @@ impl MotorLoop {
     }
 
     /// The period's telemetry records, handed to `push`: the fault event the period the latch
-    /// is first seen, then a sample when it is printed or streamed. `t` [s] is the time the
-    /// sample reports.
+    /// is first seen, then a sample when it is printed or streamed, each with the period's
+    /// move time [`Period::t`].
     #[inline(always)]
-    pub fn sample(&mut self, p: &Period, t: f32, mut push: impl FnMut(Record)) {
+    pub fn sample(&mut self, p: &Period, mut push: impl FnMut(Record)) {
+        let t = p.t;
         if let (Some(fault), false) = (p.fault, self.fault_sent) {
             self.fault_sent = true;
             push(Record::Fault {
@@ -194,6 +199,7 @@ impl MotorLoop {
                 tau: [p.command.tau.x, p.command.tau.y],
                 v_a: p.command.v_a,
                 v_f: p.y.v_f,
+                brake: !p.command.enable,
                 print: p.print,
                 stream: p.stream,
             });
@@ -237,6 +243,7 @@ pub fn motor_step(m: &mut MotorLoop, c: &mut Control, d: &mut Drive<f32>, s: &Se
     m.enabled = report.command.enable;
     Period {
         tick,
+        t: d.time(tick),
         y: d.arm_frame(&s.y),
         command: report.command,
         error: report.law.map_or(Vector2::zeros(), |l| l.error),
@@ -273,11 +280,13 @@ pub fn board_period(
     p
 }
 
-/// The motor loop's outputs: the torques and the enable line.
+/// The motor loop's outputs: the torques, the enable line, and the brake (safe brake control:
+/// released only while the amplifiers are enabled, engaged in the period they are cut).
 #[inline(always)]
 pub fn actuate(b: &mut impl Board, command: &Command<f32>) {
     b.set_torques(command.tau);
     b.set_enable(command.enable);
+    b.set_brake(!command.enable);
 }
 
 /// The fault recorder's sample of the period: every `every`-th period, and the period a fault

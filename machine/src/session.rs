@@ -70,6 +70,8 @@ pub struct Io {
     pub stack_used: u32,
     /// The piezo and motor loops' loads (for a status request only).
     pub loads: [Load; 2],
+    /// The brake output as the board reads it back (`Board::brake_engaged`).
+    pub brake_engaged: bool,
 }
 
 /// One host session: the decoder, the subscription and the tunable parameters.
@@ -238,6 +240,7 @@ impl Session {
                 stack_used: io.stack_used,
                 homing: drive.homing().states().map(home_state),
                 homing_failed: drive.homing().failed(),
+                brake_engaged: io.brake_engaged,
             }),
             Command::Ping => Reply::Done,
             Command::Arm => done(drive.arm(ctrl, now)),
@@ -369,7 +372,10 @@ impl Session {
     #[inline(never)]
     pub fn telemetry(&mut self, r: &Record, loads: [f32; 2]) -> Option<Telemetry> {
         let Record::Sample {
-            tick, stream: true, ..
+            tick,
+            brake,
+            stream: true,
+            ..
         } = *r
         else {
             return None;
@@ -380,6 +386,7 @@ impl Session {
         Some(Telemetry {
             seq,
             tick,
+            brake_engaged: brake,
             channels,
             values: telemetry::values(r, channels, loads),
         })

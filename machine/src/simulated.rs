@@ -1,6 +1,7 @@
 //! The QEMU board's arm: the core's simulated arm (`flexarm_core::simarm::SimArm`, in `f32`:
 //! RK4 with held inputs, quantized encoders and film ADC) stepped one piezo period at a time,
-//! its joints braking while the amplifiers are off. The QEMU firmware's board runs it (adding
+//! its joints held by their brakes while the brake output is engaged (issue 33: the board's
+//! brake pin, engaged whenever the amplifiers are cut). The QEMU firmware's board runs it (adding
 //! its wiring, its test builds' injections and its clock); the host's rig runs the same code
 //! as a [`Board`] of its own, so a host run of "the QEMU board" is the firmware's arithmetic.
 //!
@@ -15,7 +16,7 @@ use flexarm_core::{Vector2, Vector4};
 
 use crate::board::Board;
 
-/// Time constant of the joints' brakes while the amplifiers are off [s].
+/// Time constant of the joints' brakes while engaged [s].
 pub const BRAKE_TAU: f32 = 0.05;
 
 /// The simulated arm and its step.
@@ -41,6 +42,11 @@ pub struct SimulatedArm {
     /// The counts latched at index pulses since the last [`Board::homing_inputs`] [rad]; NaN:
     /// none.
     latched: [f32; 2],
+    /// The brake output ([`Board::set_brake`]): `true` engaged, as at power-up.
+    pub brake: bool,
+    /// A brake stuck released (a test's failure: a broken coil driver or a worn lining): the
+    /// output is written but the joints coast.
+    pub brake_stuck_released: bool,
 }
 
 impl SimulatedArm {
@@ -55,6 +61,8 @@ impl SimulatedArm {
             stop_max: [f32::INFINITY; 2],
             index: [f32::INFINITY; 2],
             latched: [f32::NAN; 2],
+            brake: true,
+            brake_stuck_released: false,
         }
     }
 
@@ -120,10 +128,11 @@ impl SimulatedArm {
         Self::new(SimArm::new(model, patch, q, SensorModel::default()), dt)
     }
 
-    /// One plant step of [`Self::dt`]. With the amplifiers off the joints brake, as geared
-    /// drives with holding brakes do: their speeds decay with a [`BRAKE_TAU`] time constant, so
-    /// a disarmed or faulted arm comes to rest instead of coasting forever on the model's
-    /// frictionless joints.
+    /// One plant step of [`Self::dt`]. While the brake output is engaged (whenever the
+    /// amplifiers are cut) the joints brake, as geared drives with holding brakes do: their
+    /// speeds decay with a [`BRAKE_TAU`] time constant, so a disarmed or faulted arm comes to
+    /// rest. A brake stuck released ([`Self::brake_stuck_released`]) lets them coast on the
+    /// model's frictionless joints.
     #[inline]
     pub fn step(&mut self) {
         let before = [self.arm.x.q.x, self.arm.x.q.y];
@@ -131,7 +140,7 @@ impl SimulatedArm {
             self.diverged = true;
         }
         self.stops_and_marks(before);
-        if !self.arm.enabled() {
+        if self.brake && !self.brake_stuck_released {
             let keep = 1.0 - self.dt / BRAKE_TAU;
             self.arm.x.qd.x *= keep;
             self.arm.x.qd.y *= keep;
@@ -160,6 +169,12 @@ impl Board for SimulatedArm {
     }
     fn set_enable(&mut self, on: bool) {
         self.arm.set_enable(on);
+    }
+    fn set_brake(&mut self, engaged: bool) {
+        self.brake = engaged;
+    }
+    fn brake_engaged(&mut self) -> bool {
+        self.brake
     }
     fn amplifier_fault(&mut self) -> bool {
         false

@@ -15,7 +15,8 @@ pub enum Record {
     Sample {
         /// Motor periods since boot: full resolution after any uptime.
         tick: u64,
-        /// Time since the board's clock started [s], from the integer tick difference.
+        /// Move time [s] (`crate::period::Period::t`): since the start of the drive's move,
+        /// stop, search or hold, from the integer tick difference (not uptime).
         t: f32,
         /// Joint tracking errors θ̂ − θ_d [rad].
         error: [f32; 2],
@@ -29,6 +30,8 @@ pub enum Record {
         v_a: f32,
         /// Film voltage [V].
         v_f: f32,
+        /// The brake output after the period: `true` engaged (the amplifiers cut).
+        brake: bool,
         /// Printed to the log (every `BoardConfig::print_every`-th period).
         print: bool,
         /// Streamed on the link (every `Control::stream_every`-th period while subscribed).
@@ -38,7 +41,7 @@ pub enum Record {
     Fault {
         /// Motor periods since boot.
         tick: u64,
-        /// Time since the board's clock started [s].
+        /// Move time [s], as a sample's.
         t: f32,
         /// The cause.
         fault: Fault,

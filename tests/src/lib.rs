@@ -105,6 +105,12 @@ impl flexarm_machine::Board for TestArm {
     fn set_enable(&mut self, on: bool) {
         flexarm_machine::Board::set_enable(&mut self.sim, on);
     }
+    fn set_brake(&mut self, engaged: bool) {
+        flexarm_machine::Board::set_brake(&mut self.sim, engaged);
+    }
+    fn brake_engaged(&mut self) -> bool {
+        flexarm_machine::Board::brake_engaged(&mut self.sim)
+    }
     fn amplifier_fault(&mut self) -> bool {
         false
     }

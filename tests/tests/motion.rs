@@ -3,8 +3,9 @@
 //! with the QEMU board's simulated arm and faults injected between the arm and the controller
 //! (`flexarm_tests::TestArm`): a reversed encoder, a frozen encoder, a rigid obstacle,
 //! a reference that runs into the end of the range, a stalled motor heating up. While the
-//! amplifiers are off the joints brake with a 50 ms time constant (the QEMU board's model of a
-//! geared drive's holding brake), so a coast distance is finite.
+//! brake output is engaged (whenever the amplifiers are off) the joints brake with a 50 ms time
+//! constant (the QEMU board's model of a geared drive's holding brake), so a coast distance is
+//! finite.
 
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 

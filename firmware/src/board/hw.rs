@@ -11,15 +11,16 @@
 //! | motor 1 torque | PB14 | TIM12 CH1 PWM, 20 kHz (AF9) | duty 0–100 % ↔ −τ_max…+τ_max |
 //! | motor 2 torque | PB15 | TIM12 CH2 PWM, 20 kHz (AF9) | duty 0–100 % ↔ −τ_max…+τ_max |
 //! | amplifier enable | PB12 | GPIO output, active high, external 10 kΩ pull-down | all three amplifiers |
+//! | brake release | PB11 | GPIO output, active high, external 10 kΩ pull-down | both joints' fail-safe holding brakes (through their coil drivers): low or floating = engaged |
 //! | amplifier fault | PB13 | GPIO input, pull-up, active low | wired-OR of the three |
 //!
 //! Register values follow RM0090 (STM32F405 reference manual); each write says what it sets.
-//! The enable and fault lines go through `embedded-hal` 1.0 pin traits.
+//! The enable, brake-release and fault lines go through `embedded-hal` 1.0 pin traits.
 
 use core::convert::Infallible;
 use core::f32::consts::TAU;
 
-use embedded_hal::digital::{ErrorType, InputPin, OutputPin};
+use embedded_hal::digital::{ErrorType, InputPin, OutputPin, StatefulOutputPin};
 use flexarm_core::Vector2;
 use flexarm_core::homing;
 use flexarm_core::params::Limits;
@@ -29,6 +30,10 @@ use super::Board;
 
 /// The enable line's pin number on port B.
 pub const ENABLE_PIN: u8 = 12;
+/// The brake-release line's pin number on port B (issue 33): high releases both joints'
+/// brakes, low (and floating, by its pull-down) engages them. On the enable's port, so the
+/// safe-state paths reset both with one BSRR store.
+pub const BRAKE_PIN: u8 = 11;
 /// DAC code of a 0 V piezo command, at boot and in the safe state: codes `DAC_MID ± 2047` span
 /// the amplifier's input range symmetrically.
 pub const DAC_MID: u16 = 2048;
@@ -104,12 +109,12 @@ pub fn feed_watchdog(iwdg: &mut IWDG) {
     iwdg.kr().write(|w| w.key().feed());
 }
 
-/// A GPIOB pin, accessed through the atomic BSRR (set/reset) and the read-only IDR.
+/// A GPIOB pin, accessed through the atomic BSRR (set/reset), IDR and ODR (reads).
 pub struct PortBPin<const N: u8>;
 
 impl<const N: u8> PortBPin<N> {
     fn regs() -> &'static stm32f4::stm32f405::gpioa::RegisterBlock {
-        // SAFETY: only BSRR (atomic, write-only) and IDR (read-only) are used, so concurrent
+        // SAFETY: only BSRR (atomic, write-only), IDR and ODR (read) are used, so concurrent
         // use of different pins of the port cannot race; GPIOB's configuration is done once in
         // `HwBoard::new` before any pin is used.
         unsafe { &*GPIOB::ptr().cast() }
@@ -135,6 +140,16 @@ impl<const N: u8> OutputPin for PortBPin<N> {
     }
 }
 
+impl<const N: u8> StatefulOutputPin for PortBPin<N> {
+    /// The output data register's bit (the level the pin drives as an output).
+    fn is_set_high(&mut self) -> Result<bool, Infallible> {
+        Ok(Self::regs().odr().read().bits() & (1 << N) != 0)
+    }
+    fn is_set_low(&mut self) -> Result<bool, Infallible> {
+        Ok(Self::regs().odr().read().bits() & (1 << N) == 0)
+    }
+}
+
 impl<const N: u8> InputPin for PortBPin<N> {
     fn is_high(&mut self) -> Result<bool, Infallible> {
         Ok(Self::regs().idr().read().bits() & (1 << N) != 0)
@@ -152,6 +167,7 @@ pub struct HwBoard {
     adc: ADC1,
     dac: DAC,
     enable: PortBPin<12>,
+    brake_release: PortBPin<11>,
     fault_n: PortBPin<13>,
     /// Last raw counts and accumulated counts of each encoder (16-bit timers, unwrapped).
     raw: [u16; 2],
@@ -215,8 +231,9 @@ impl HwBoard {
             (3 << 12) | (3 << 14) | (3 << 16),
             (1 << 12) | (1 << 14) | (1 << 16)
         );
-        // GPIOB: PB13 input (MODER 0b00, its reset value) with pull-up; PB12 (the enable, an
-        // output driven low) and PB14/PB15 (TIM12) are `super::pre_init`'s.
+        // GPIOB: PB13 input (MODER 0b00, its reset value) with pull-up; PB12 (the enable) and
+        // PB11 (the brake release), outputs driven low, and PB14/PB15 (TIM12) are
+        // `super::pre_init`'s.
         set_bits!(gpiob.moder(), 3 << 26, 0);
         set_bits!(gpiob.pupdr(), 3 << 26, 1 << 26);
         // PB6/PB7 AF7: USART1 TX/RX, the command link (`crate::link`); RX pulled up so an
@@ -280,6 +297,7 @@ impl HwBoard {
             adc,
             dac,
             enable: PortBPin,
+            brake_release: PortBPin,
             fault_n: PortBPin,
             raw,
             counts: [0; 2],
@@ -390,6 +408,19 @@ impl Board for HwBoard {
         } else {
             self.enable.set_low()
         };
+    }
+
+    fn set_brake(&mut self, engaged: bool) {
+        let Ok(()) = if engaged {
+            self.brake_release.set_low()
+        } else {
+            self.brake_release.set_high()
+        };
+    }
+
+    fn brake_engaged(&mut self) -> bool {
+        let Ok(low) = self.brake_release.is_set_low();
+        low
     }
 
     fn amplifier_fault(&mut self) -> bool {

@@ -10,8 +10,9 @@
 //! cleared and set, and written back (RM0090), so that a debugger's pins (PA13/PA14) and the
 //! reset values keep their other bits. In order:
 //!
-//! 1. GPIOA and GPIOB clocks on; the enable line PB12 reset (BSRR), then made an output: the
-//!    amplifiers are disabled the moment the pin drives;
+//! 1. GPIOA and GPIOB clocks on; the enable line PB12 and the brake-release line PB11 reset
+//!    (one BSRR store), then made outputs: the amplifiers are disabled and the brakes engaged
+//!    the moment the pins drive;
 //! 2. DAC and TIM12 clocks on; PA4 analog, then the DAC's channel 1 at mid-scale
 //!    ([`DAC_MID`](super::hw::DAC_MID), 0 V at the piezo) with its buffer, then enabled
 //!    (RM0090, DAC: the pin analog first, before the channel connects it to its output);
@@ -20,7 +21,7 @@
 //!    timer counts at 16 MHz (3.8 kHz PWM instead of 20 kHz), still at 50 %.
 //!
 //! `scripts/fw-elf-check` checks in the built ELF that the reset handler calls this first and
-//! that its first store after the GPIO clocks is the enable's reset.
+//! that its first store after the GPIO clocks is the enable's (and the brake's) reset.
 
 use super::hw::{DAC_MID, PWM_PERIOD};
 
@@ -48,10 +49,13 @@ const TIM12_CCR2: u32 = TIM12 + 0x38;
 /// Field values.
 const GPIOAEN_GPIOBEN: u32 = 0b11;
 const TIM12EN_DACEN: u32 = (1 << 6) | (1 << 29);
-/// PB12: BSRR reset bit; MODER 0b01 (output).
-const PB12_RESET: u32 = 1 << (16 + super::hw::ENABLE_PIN as u32);
-const PB12_MODER_MASK: u32 = 0b11 << 24;
-const PB12_OUTPUT: u32 = 0b01 << 24;
+/// PB12 (the enable) and PB11 (the brake release): BSRR reset bits; MODER 0b01 (output).
+const PB12_RESET: u32 =
+    (1 << (16 + super::hw::ENABLE_PIN as u32)) | (1 << (16 + super::hw::BRAKE_PIN as u32));
+const PB12_MODER_MASK: u32 =
+    (0b11 << (2 * super::hw::ENABLE_PIN as u32)) | (0b11 << (2 * super::hw::BRAKE_PIN as u32));
+const PB12_OUTPUT: u32 =
+    (0b01 << (2 * super::hw::ENABLE_PIN as u32)) | (0b01 << (2 * super::hw::BRAKE_PIN as u32));
 /// PA4: MODER 0b11 (analog).
 const PA4_ANALOG: u32 = 0b11 << 8;
 /// DAC_CR: EN1 (bit 0) on, BOFF1 (bit 1) clear: the output buffer on.
@@ -89,7 +93,7 @@ pub unsafe extern "C" fn __pre_init() {
         "ldr r1, =\\value",
         "str r1, [r0]",
         ".endm",
-        // 1. The enable line low, then driven.
+        // 1. The enable and brake-release lines low, then driven.
         "rmw {ahb1enr}, 0, {gpio_en}",
         "dsb",
         "put {bsrr}, {pb12_reset}",

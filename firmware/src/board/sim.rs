@@ -1,8 +1,8 @@
 //! The QEMU board: the arm simulated inside the firmware (`flexarm_machine::simulated`: the
-//! core's model in `f32`, RK4, quantized encoders and film ADC, brakes while disabled), stepped
-//! once per piezo period, with the wiring of `super::wiring` and the test builds' injections.
-//! Its enable and fault lines are in-memory `embedded-hal` pins, so the same pin logic runs as on
-//! hardware.
+//! core's model in `f32`, RK4, quantized encoders and film ADC, held by its brakes while the
+//! brake output is engaged), stepped once per piezo period, with the wiring of `super::wiring`
+//! and the test builds' injections. Its enable, brake-release and fault lines are in-memory
+//! `embedded-hal` pins, so the same pin logic runs as on hardware.
 
 use core::convert::Infallible;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering::Relaxed};
@@ -17,6 +17,8 @@ use super::{Board, wiring};
 /// force and read them (`crate::emergency`), the injection runs judge them.
 pub struct OutputRecord {
     enable: AtomicBool,
+    /// The brake-release line (high: released).
+    brake_release: AtomicBool,
     was_enabled: AtomicBool,
     tau: [AtomicU32; 2],
     v_a: AtomicU32,
@@ -29,6 +31,8 @@ pub struct Outputs {
     pub enable: bool,
     /// Whether the enable line was ever high.
     pub was_enabled: bool,
+    /// The brake-release line: `false` is the brake engaged.
+    pub brake_release: bool,
     /// Motor torque commands [N·m].
     pub tau: [f32; 2],
     /// Piezo command [V].
@@ -36,9 +40,9 @@ pub struct Outputs {
 }
 
 impl Outputs {
-    /// Amplifiers off, zero torque, zero voltage.
+    /// Amplifiers off, brake engaged, zero torque, zero voltage.
     pub fn is_safe(&self) -> bool {
-        !self.enable && self.tau == [0.0; 2] && self.v_a == 0.0
+        !self.enable && !self.brake_release && self.tau == [0.0; 2] && self.v_a == 0.0
     }
 }
 
@@ -46,6 +50,7 @@ impl OutputRecord {
     const fn new() -> Self {
         Self {
             enable: AtomicBool::new(false),
+            brake_release: AtomicBool::new(false),
             was_enabled: AtomicBool::new(false),
             tau: [AtomicU32::new(0), AtomicU32::new(0)],
             v_a: AtomicU32::new(0),
@@ -64,9 +69,11 @@ impl OutputRecord {
         self.tau[1].store(tau.y.to_bits(), Relaxed);
     }
 
-    /// The safe state, written as the hardware board's emergency path writes it: enable first.
+    /// The safe state, written as the hardware board's emergency path writes it: enable first,
+    /// with the brake.
     pub fn force_safe(&self) {
         self.enable.store(false, Relaxed);
+        self.brake_release.store(false, Relaxed);
         self.set_torques(Vector2::zeros());
         self.v_a.store(0, Relaxed);
     }
@@ -76,6 +83,7 @@ impl OutputRecord {
         Outputs {
             enable: self.enable.load(Relaxed),
             was_enabled: self.was_enabled.load(Relaxed),
+            brake_release: self.brake_release.load(Relaxed),
             tau: [
                 f32::from_bits(self.tau[0].load(Relaxed)),
                 f32::from_bits(self.tau[1].load(Relaxed)),
@@ -121,6 +129,8 @@ pub struct SimBoard {
     /// The plant, its sensors and its step.
     pub sim: SimulatedArm,
     enable: SimPin,
+    /// Brake-release line, active high (low = engaged), as the hardware board's.
+    brake_release: SimPin,
     /// Amplifier fault line, active low (high = healthy).
     fault_n: SimPin,
     /// The verdict run's measurements.
@@ -138,6 +148,7 @@ impl SimBoard {
         Self {
             sim,
             enable: SimPin(false),
+            brake_release: SimPin(false),
             fault_n: SimPin(true),
             run: crate::verdict::RunCheck::default(),
             steps: 0,
@@ -209,6 +220,20 @@ impl Board for SimBoard {
         let Ok(level) = self.enable.is_high();
         OUTPUTS.set_enable(level);
         self.sim.arm.set_enable(level);
+    }
+    fn set_brake(&mut self, engaged: bool) {
+        let Ok(()) = if engaged {
+            self.brake_release.set_low()
+        } else {
+            self.brake_release.set_high()
+        };
+        let Ok(released) = self.brake_release.is_high();
+        OUTPUTS.brake_release.store(released, Relaxed);
+        Board::set_brake(&mut self.sim, !released);
+    }
+    fn brake_engaged(&mut self) -> bool {
+        let Ok(low) = self.brake_release.is_low();
+        low
     }
     fn amplifier_fault(&mut self) -> bool {
         let Ok(low) = self.fault_n.is_low();
