@@ -113,13 +113,13 @@ pub fn identified_loop<T: Real>(
     film_static: T,
     film_feedthrough: T,
 ) -> IdentifiedLoop<T> {
-    let g = patch.slope_diff.component_mul(&patch.slope_diff) * (patch.k_a * patch.k_s);
-    let w2 = modes.omega.component_mul(&modes.omega);
+    let (d, w, k) = (&patch.slope_diff, &modes.omega, patch.k_a * patch.k_s);
+    let g = crate::Vector2::new(d.x * d.x * k, d.y * d.y * k);
     IdentifiedLoop {
         omega: modes.omega,
         zeta: modes.zeta,
         film_gain: g,
-        direct: film_static - g.component_div(&w2).sum(),
+        direct: film_static - (g.x / (w.x * w.x) + g.y / (w.y * w.y)),
         feedthrough: film_feedthrough,
     }
 }
@@ -151,31 +151,29 @@ impl<T: Real> PiezoSelect<T> {
         v_min: T,
         v_max: T,
     ) -> Result<Self, DesignError> {
-        let id = || {
-            let id = identified_loop(modes, patch, setup.film_static, setup.film_feedthrough);
-            if id.is_valid() && id.direct.finite() {
-                Ok(id)
-            } else {
-                Err(DesignError::Unidentified)
-            }
-        };
-        let law = match setup.law {
+        let irc = match setup.law {
             PiezoLawKind::Off => return Ok(Self::Off),
             PiezoLawKind::Rate => return Ok(Self::Rate),
-            PiezoLawKind::Irc => {
-                let g = IrcGains::design(&id()?).ok_or(DesignError::Unidentified)?;
-                let l = Irc::new(&g, period, v_min, v_max);
-                (Self::Irc(l), l.is_valid())
-            }
-            PiezoLawKind::Ppf => {
-                let g = PpfGains::design(&id()?).ok_or(DesignError::Unidentified)?;
-                let l = Ppf::new(&g, period, v_min, v_max);
-                (Self::Ppf(l), l.is_valid())
-            }
+            PiezoLawKind::Irc => true,
+            PiezoLawKind::Ppf => false,
         };
-        match law {
-            (l, true) => Ok(l),
-            _ => Err(DesignError::Invalid),
+        let id = identified_loop(modes, patch, setup.film_static, setup.film_feedthrough);
+        if !id.is_valid() {
+            return Err(DesignError::Unidentified);
+        }
+        let (law, valid) = if irc {
+            let g = IrcGains::design(&id).ok_or(DesignError::Unidentified)?;
+            let l = Irc::new(&g, period, v_min, v_max);
+            (Self::Irc(l), l.is_valid())
+        } else {
+            let g = PpfGains::design(&id).ok_or(DesignError::Unidentified)?;
+            let l = Ppf::new(&g, period, v_min, v_max);
+            (Self::Ppf(l), l.is_valid())
+        };
+        if valid {
+            Ok(law)
+        } else {
+            Err(DesignError::Invalid)
         }
     }
 
