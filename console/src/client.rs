@@ -101,7 +101,7 @@ pub fn refusal(r: Refusal) -> &'static str {
             "only while the piezo output is off: `disarm` first (a change of the piezo law, or of what a law beside the paper's rate law is designed from)"
         }
         Refusal::Unidentified => {
-            "the law's design rule needs the film's static gain measured: run `flexarm identify film` (or `set film_static`) first"
+            "the law's design rule needs the film's static gain measured: run `flexarm bringup` (its film step writes it) or `set film_static` first"
         }
         Refusal::NotHomed => {
             "a joint is not homed: its encoder counts from where it was at power-up, so no \

@@ -71,7 +71,7 @@ pub enum TuneError {
     /// docs).
     Armed,
     /// The law's design rule needs the film's static gain measured (`film_static`, larger
-    /// than the controller's two modes' share; `flexarm identify film`).
+    /// than the controller's two modes' share; `flexarm bringup`'s film step).
     Unidentified,
 }
 

@@ -121,7 +121,7 @@ impl BoardConfig {
     /// paper's law at its shipped gain unstable on a realistic link at every bond factor, and
     /// the law it recommends (PPF) stable only with a static gain identified on that arm (the
     /// rule's factor 2.5 is 2.5 times the identified `G(0)` over the true one), which only
-    /// commissioning gives (`flexarm identify film`, then `set piezo_law ppf`; `flexarm
+    /// commissioning gives (`flexarm bringup`, its film step, then `set piezo_law ppf`; `flexarm
     /// bringup` says so).
     ///
     /// Both: the core's motor gains with the joints' `K_p` slowed for a slow motor loop

@@ -86,7 +86,7 @@ pub struct PiezoSetup<T> {
     pub law: PiezoLawKind,
     /// The rate law's gains.
     pub rate: PiezoGains<T>,
-    /// The film's static gain `G(0)` [V/V] measured on the arm (`flexarm identify film`); 0
+    /// The film's static gain `G(0)` [V/V] measured on the arm (`flexarm bringup`'s film step); 0
     /// when not measured.
     pub film_static: T,
     /// The film's feedthrough `F̂` [V/V]: its jump right after a step of `V_a`, per volt
