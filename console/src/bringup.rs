@@ -29,8 +29,18 @@
 //!    feedback would pump the vibration). *Gain*: its ratio to the model's static gain
 //!    `k_a k_s Σ s_j²/ω_j²` within 0.5–2.
 //!
-//! Whatever happens, the torque limits are written back, and `k_c` too unless the film failed
-//! (then the piezo loop stays off until it is fixed, `flexarm set kc …` after), and a drive that was
+//!    When both pass, the film's measured static gain is written to the board's `film_static`
+//!    and its response in the first motor period after the step (over the step) to
+//!    `film_feedthrough` (issue 35): what the design rules of the laws beside the paper's (IRC,
+//!    PPF, `flexarm_core::control::select`) are built from.
+//!
+//! The piezo law (issue 35) is off during the checks (`piezo_law off` as well as `k_c = 0`: IRC
+//! and PPF do not read `k_c`; changing it disarms a holding drive first). The report ends with
+//! the law the board runs and, when it runs none, what commissioning one takes: the hardware
+//! board ships the piezo loop off (`flexarm_machine::BoardConfig::for_board`).
+//!
+//! Whatever happens, the torque limits are written back, `k_c` and the piezo law too unless the
+//! film failed (then the piezo loop stays off until it is fixed, `flexarm set kc …` after), and a drive that was
 //! disarmed at the start is disarmed again (a latched fault is left latched: it is the safe
 //! state, and `clear` is the operator's once the cause is fixed). Angles in rad, torques in N·m,
 //! voltages in V, times in s.
@@ -39,8 +49,9 @@ use std::time::Duration;
 
 use flexarm_core::Vector4;
 use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_core::control::select::PiezoLawKind;
 use flexarm_link::Command;
-use flexarm_link::msg::{Mode, Move, Param, Status, Telemetry};
+use flexarm_link::msg::{Mode, Move, Param, Reply, Status, Telemetry};
 
 use crate::client::{Client, ConsoleError};
 use crate::record::{Values, values};
@@ -135,6 +146,8 @@ const WIRING: &str = "firmware/src/board.rs, mod wiring";
 pub struct Report {
     /// In [`CHECKS`] order.
     pub checks: Vec<Check>,
+    /// The piezo law the board runs after the bring-up, and what commissioning one takes.
+    pub piezo: String,
 }
 
 impl Report {
@@ -150,6 +163,7 @@ impl Report {
                     fix: String::new(),
                 })
                 .collect(),
+            piezo: String::new(),
         }
     }
 
@@ -195,6 +209,9 @@ impl Report {
         }
         if let Some(c) = self.failed() {
             t += &format!("fix ({}): {}\n", c.name, c.fix);
+        }
+        if !self.piezo.is_empty() {
+            t += &format!("piezo law: {}\n", self.piezo);
         }
         t
     }
@@ -245,10 +262,18 @@ pub fn run(c: &mut Client, o: &Options) -> Result<Report, ConsoleError> {
     let saved = Saved {
         tau_max: [c.get(Param::TauMax0)?, c.get(Param::TauMax1)?],
         k_c: c.get(Param::Kc)?,
+        law: c.get(Param::PiezoLaw)?,
     };
     c.set(Param::TauMax0, o.torque.min(saved.tau_max[0]))?;
     c.set(Param::TauMax1, o.torque.min(saved.tau_max[1]))?;
     c.set(Param::Kc, 0.0)?;
+    if law_of(saved.law).needs_identification() {
+        // The law changes only while the piezo output is off: a holding drive disarms.
+        if c.status()?.mode == Mode::Armed {
+            c.done("disarm", Command::Disarm)?;
+        }
+        c.set(Param::PiezoLaw, f32::from(PiezoLawKind::Off.code()))?;
+    }
     let outcome = experiments(c, o, &mut r);
     // The experiments' error first; the restore's only when they had none.
     let restored = finish(c, r, Some(saved), was_armed);
@@ -259,6 +284,13 @@ pub fn run(c: &mut Client, o: &Options) -> Result<Report, ConsoleError> {
 struct Saved {
     tau_max: [f32; 2],
     k_c: f32,
+    /// The piezo law's code.
+    law: f32,
+}
+
+/// The law a code names (none for a code that names none).
+fn law_of(code: f32) -> PiezoLawKind {
+    PiezoLawKind::from_code(code).unwrap_or(PiezoLawKind::Off)
 }
 
 /// The encoder and film checks (the drive armed from here on).
@@ -322,17 +354,67 @@ fn finish(
     if s.mode == Mode::Armed {
         let _ = c.ask(Command::Set(Param::VaBias, 0.0))?;
     }
+    let mut r = r;
+    let mut mode = s.mode;
     if let Some(saved) = saved {
         c.set(Param::TauMax0, saved.tau_max[0])?;
         c.set(Param::TauMax1, saved.tau_max[1])?;
         if !r.failed().is_some_and(|f| f.name.starts_with("film")) {
             c.set(Param::Kc, saved.k_c)?;
+            let law = law_of(saved.law);
+            if law_of(c.get(Param::PiezoLaw)?) != law {
+                if mode == Mode::Armed {
+                    c.done("disarm", Command::Disarm)?;
+                    mode = Mode::Disarmed;
+                }
+                if let Reply::Refused(why) =
+                    c.ask(Command::Set(Param::PiezoLaw, f32::from(law.code())))?
+                {
+                    r.piezo = format!("{} refused ({}); ", law.name(), crate::client::refusal(why));
+                }
+                if was_armed {
+                    c.done("arm", Command::Arm)?;
+                    mode = Mode::Armed;
+                }
+            }
         }
     }
-    if !was_armed && s.mode == Mode::Armed {
+    if !was_armed && mode == Mode::Armed {
         c.done("disarm", Command::Disarm)?;
     }
+    r.piezo += &piezo_summary(c)?;
     Ok(r)
+}
+
+/// The law the board runs, and what commissioning one takes when it runs none.
+fn piezo_summary(c: &mut Client) -> Result<String, ConsoleError> {
+    let law = law_of(c.get(Param::PiezoLaw)?);
+    let g0 = c.get(Param::FilmStatic)?;
+    let measured = if g0 > 0.0 {
+        format!("film_static = {g0:.3e} V/V")
+    } else {
+        "film_static not measured (0)".into()
+    };
+    Ok(match law {
+        PiezoLawKind::Off => format!(
+            "off: no piezo law is commissioned on this arm ({measured}). The hardware board \
+             ships the piezo loop off: the paper's rate law at its shipped gain is unstable on a \
+             realistic link once the film sees any of the ceramic's strain, and the law the \
+             spillover study supports, PPF, needs the film's static gain measured on this arm \
+             (docs/results.md, \"The film's feedthrough and the laws that survive it\"). With \
+             the film checks passed: `flexarm disarm`, `flexarm set piezo_law ppf`, then a \
+             struck-link check (docs/console.md, \"Commissioning the piezo law\")."
+        ),
+        PiezoLawKind::Rate => format!(
+            "rate (Eq. 17, k_c = {} s; {measured}): the paper's law, unstable on a realistic \
+             link at the shipped 30 s once the film sees any feedthrough (docs/results.md); \
+             PPF is the law the study supports (`flexarm set piezo_law ppf`, disarmed)",
+            c.get(Param::Kc)?
+        ),
+        PiezoLawKind::Irc | PiezoLawKind::Ppf => {
+            format!("{} ({measured})", law.name())
+        }
+    })
 }
 
 /// Starts `m` and follows it to its end: the frames meanwhile and a quarter second after, and
@@ -528,6 +610,15 @@ fn film(
         settled(&step, |v| v.v_f()) - settled(&base, |v| v.v_f()),
     );
     let measured = vf / va;
+    // The first frame with the step applied: the film's response within one motor period,
+    // before the modes have moved much (the feedthrough and the fast modes' share).
+    let base_va = settled(&base, |v| v.v_a());
+    let base_vf = settled(&base, |v| v.v_f());
+    let jump = step
+        .iter()
+        .map(|f| values(f))
+        .find(|v| (v.v_a() - base_va).abs() > 0.5 * va.abs())
+        .map(|v| (v.v_f() - base_vf) / va);
     let expected = film_gain_model(model, &PiezoPatch::<f64>::paper());
     let ratio = measured / expected;
     let text = format!(
@@ -545,12 +636,18 @@ fn film(
     ) {
         return Ok(());
     }
-    r.record(
+    if r.record(
         "film gain",
         (0.5..=2.0).contains(&ratio),
         text,
         "0.5–2 × the model's",
         "the film's gain is off: check the charge amplifier's gain and FILM_RANGE (firmware/src/board/hw.rs), and k_s, c_s in firmware/piezo.toml; k_c is left at 0, the piezo loop off, until then".into(),
-    );
+    ) {
+        // What the laws' design rules are built from (issue 35).
+        c.set(Param::FilmStatic, measured as f32)?;
+        if let Some(f) = jump.filter(|f| f.is_finite() && f.abs() <= 1.0) {
+            c.set(Param::FilmFeedthrough, f as f32)?;
+        }
+    }
     Ok(())
 }

@@ -10,7 +10,7 @@ use flexarm_core::controller::Controller;
 use flexarm_core::drive::{MAX_MOVE_TIME, Mode, MoveLimits};
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::trajectory::{JointTrajectory, Profile};
-use flexarm_core::tuning::Tuning;
+use flexarm_core::tuning::{Tunable, Tuning};
 use flexarm_link::msg::{Move, Param, Waypoint};
 use flexarm_machine::session::{self, Home};
 
@@ -207,6 +207,18 @@ pub fn set_value(name: &str, p: Param, value: f32) -> Result<(), ConsoleError> {
     let Home::Tuning(tunable) = session::home(p) else {
         return Ok(());
     };
+    // The piezo law and the film's measured numbers: the board designs the law from its own
+    // model and refuses what its rule refuses; here only a code that names a law.
+    match tunable {
+        Tunable::PiezoLaw => {
+            return match flexarm_core::control::select::PiezoLawKind::from_code(value) {
+                Some(_) => Ok(()),
+                None => refused(),
+            };
+        }
+        Tunable::FilmStatic | Tunable::FilmFeedthrough => return Ok(()),
+        _ => {}
+    }
     let rates = flexarm_host::sim::Rates::default();
     let (piezo, motor) = (1.0 / rates.piezo_hz as f32, 1.0 / rates.motor_hz as f32);
     let mut ctrl = Controller::<f32>::paper(
@@ -218,6 +230,9 @@ pub fn set_value(name: &str, p: Param, value: f32) -> Result<(), ConsoleError> {
     );
     let mut tuning = Tuning {
         piezo: Default::default(),
+        law: flexarm_core::control::select::PiezoLawKind::Rate,
+        film_static: 0.0,
+        film_feedthrough: 0.0,
         piezo_period: piezo,
         tau_ceiling: Vector2::repeat(f32::INFINITY),
         v_a_ceiling: f32::INFINITY,

@@ -97,6 +97,12 @@ pub fn refusal(r: Refusal) -> &'static str {
         Refusal::UnknownParam => "no such parameter",
         Refusal::NoRecord => "nothing recorded there",
         Refusal::Unsupported => "this firmware does not implement it",
+        Refusal::Armed => {
+            "only while the piezo output is off: `disarm` first (a change of the piezo law, or of what a law beside the paper's rate law is designed from)"
+        }
+        Refusal::Unidentified => {
+            "the law's design rule needs the film's static gain measured: run `flexarm bringup` (its film step writes it) or `set film_static` first"
+        }
         Refusal::NotHomed => {
             "a joint is not homed: its encoder counts from where it was at power-up, so no \
              limit holds in the arm's frame (`flexarm home` first; `flexarm home --declare` \

@@ -110,9 +110,10 @@ enum Action {
     Set {
         /// Its name.
         name: String,
-        /// The value, in the parameter's unit.
+        /// The value, in the parameter's unit (`piezo_law` also takes the law's name: off,
+        /// rate, irc, ppf).
         #[arg(allow_negative_numbers = true)]
-        value: f32,
+        value: String,
     },
     /// Start a move, validated whole by the firmware, and wait for its end (Ctrl-C stops it).
     #[command(subcommand)]
@@ -469,12 +470,13 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         Action::Get { name } => {
             let (p, unit) = params::parse(&name)?;
             match c.request(&format!("get {name}"), Command::Get(p))? {
-                Reply::Value(v) => println!("{name} = {v} {unit}"),
+                Reply::Value(v) => println!("{name} = {v} {unit}{}", params::meaning(p, v)),
                 r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
             }
         }
         Action::Set { name, value } => {
             let (p, unit) = params::parse(&name)?;
+            let value = params::value(p, &value)?;
             done(
                 &mut c,
                 &format!("set {name} = {value} {unit}"),
@@ -695,7 +697,7 @@ fn check_arguments(cli: &Cli) -> Result<(), ConsoleError> {
         Action::Get { name } if name != "list" => params::parse(name).map(|_| None)?,
         Action::Set { name, value } => {
             let (p, _) = params::parse(name)?;
-            check::set_value(name, p, *value).map(|()| None)?
+            check::set_value(name, p, params::value(p, value)?).map(|()| None)?
         }
         Action::Move(m) => Some(m),
         Action::Record {

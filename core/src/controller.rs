@@ -6,7 +6,8 @@
 //!   observer correction, trajectory sample, Eq. 7 or Eq. 16 on the estimated state, saturation,
 //!   observer prediction with the torques and piezo force just applied;
 //! - [`Controller::piezo_step`] (piezo loop): `V_a = sat(−k_c V̇_f)` (Eq. 17) with the film
-//!   voltage checked.
+//!   voltage checked, or the law [`Controller::design_piezo`] chose instead
+//!   (`crate::control::select`: none, IRC, PPF).
 //!
 //! Both loops read the [`SafetyLatch`]: after any fault they command the safe state (zero
 //! torque, zero voltage, amplifiers disabled) until [`Controller::reset`]. Disarmed
@@ -15,6 +16,7 @@
 
 use crate::control::motor::{MotorController, MotorLaw, MotorOutput};
 use crate::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
+use crate::control::select::{DesignError, PiezoLawKind, PiezoSelect, PiezoSetup};
 use crate::fault::Fault;
 use crate::model::Model;
 use crate::observer::{Gain, Measurement, Observer, film_map};
@@ -48,8 +50,11 @@ pub struct MotorReport<T> {
 pub struct Controller<T> {
     /// Motor law.
     pub motor: MotorController<T>,
-    /// Piezo law.
+    /// The paper's piezo law (Eq. 17), run when [`Self::selected`] is the rate law.
     pub piezo: PiezoLaw<T>,
+    /// The piezo law that runs: the rate law above, or another (issue 35); changed only
+    /// through [`Self::design_piezo`] (and `crate::tuning`).
+    select: PiezoSelect<T>,
     /// The patch, for the piezo's modal force in the observer's prediction.
     pub patch: PiezoPatch<T>,
     /// State observer.
@@ -68,8 +73,10 @@ pub struct Controller<T> {
     pub motor_period: T,
     latch: SafetyLatch,
     /// The piezo loop's one test: a film sample passes when `|V_f| < film_gate` [V], which is
-    /// the film's range `v_f_max` while the latch is clear and −1 (nothing passes) once it has
-    /// tripped, so the latch costs the hot path no test of its own. Every trip goes through
+    /// the film's range `v_f_max` while armed with the latch clear and the rate law selected,
+    /// and −1 (nothing passes) otherwise, so neither the latch nor the choice of law costs the
+    /// paper's law's hot path a test of its own (the other laws run on the closed gate's
+    /// branch, [`Self::piezo_step_selected`]). Every trip goes through
     /// [`Self::trip`], which closes it; [`Self::reset`] opens it.
     film_gate: T,
     /// The amplifiers may be driven (the drive's `armed`); a new controller is armed.
@@ -105,6 +112,7 @@ impl<T: Real> Controller<T> {
         let mut c = Self {
             motor,
             piezo,
+            select: PiezoSelect::Rate,
             patch,
             observer,
             sensors,
@@ -227,6 +235,7 @@ impl<T: Real> Controller<T> {
     pub fn set_armed(&mut self, armed: bool) {
         if armed && !self.armed {
             self.piezo.reset();
+            self.select.reset();
         }
         self.armed = armed;
         self.v_a = T::zero();
@@ -256,9 +265,46 @@ impl<T: Real> Controller<T> {
         self.v_a
     }
 
-    /// The film gate: the film's range while armed with the latch clear, closed otherwise.
+    /// The piezo law that runs.
+    pub fn selected(&self) -> PiezoLawKind {
+        self.select.kind()
+    }
+
+    /// Designs the law `setup` names ([`PiezoSelect::design`]) for this controller's arm
+    /// model, patch and piezo window at the piezo `period` [s], and runs it from now on, at
+    /// rest (the command 0 V until its next step). A law its design rule refuses leaves none
+    /// running (0 V) and latches [`Fault::InvalidConfig`]. The caller sees that the piezo
+    /// output is off while it changes (`crate::tuning`'s rule); a board calls it at start.
+    pub fn design_piezo(&mut self, setup: &PiezoSetup<T>, period: T) -> Result<(), DesignError> {
+        let l = &self.motor.limits;
+        let modes = &self.motor.model.params.modes;
+        match PiezoSelect::design(setup, modes, &self.patch, period, l.v_a_min, l.v_a_max) {
+            Ok(law) => {
+                self.install_piezo(law);
+                Ok(())
+            }
+            Err(e) => {
+                self.install_piezo(PiezoSelect::Off);
+                self.trip(Fault::InvalidConfig);
+                Err(e)
+            }
+        }
+    }
+
+    /// Runs `law`, a law [`PiezoSelect::design`] built (valid and at rest), from now on.
+    pub(crate) fn install_piezo(&mut self, law: PiezoSelect<T>) {
+        self.select = law;
+        self.v_a = T::zero();
+        self.open_gate();
+    }
+
+    /// The film gate: the film's range while armed with the latch clear and the rate law
+    /// selected, closed otherwise.
     fn open_gate(&mut self) {
-        self.film_gate = if self.armed && self.latch.fault().is_none() {
+        self.film_gate = if self.armed
+            && self.latch.fault().is_none()
+            && matches!(self.select, PiezoSelect::Rate)
+        {
             self.sensors.v_f_max
         } else {
             -T::one()
@@ -271,6 +317,7 @@ impl<T: Real> Controller<T> {
         self.latch.reset();
         self.open_gate();
         self.piezo.reset();
+        self.select.reset();
         self.v_a = T::zero();
         self.reset_observer(theta);
     }
@@ -429,16 +476,30 @@ impl<T: Real> Controller<T> {
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
         if !(v_f.abs() < self.film_gate) {
             crate::hint::cold();
-            if self.armed && self.latch.fault().is_none() {
-                self.trip(if v_f.finite() {
-                    Fault::OutOfRange
-                } else {
-                    Fault::NonFinite
-                });
-            }
-            return T::zero();
+            return self.piezo_step_selected(v_f);
         }
         self.v_a = self.piezo.step_finite(v_f);
+        self.v_a
+    }
+
+    /// The closed gate's branch of [`Self::piezo_step`]: 0 V when disarmed or latched; a
+    /// sample out of the film's range or not finite trips its fault; otherwise the selected
+    /// law other than the rate law runs (none: 0 V).
+    #[inline(never)]
+    fn piezo_step_selected(&mut self, v_f: T) -> T {
+        if !self.armed || self.latch.fault().is_some() {
+            return T::zero();
+        }
+        #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
+        if !(v_f.abs() < self.sensors.v_f_max) {
+            self.trip(if v_f.finite() {
+                Fault::OutOfRange
+            } else {
+                Fault::NonFinite
+            });
+            return T::zero();
+        }
+        self.v_a = self.select.step(v_f);
         self.v_a
     }
 }

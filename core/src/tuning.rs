@@ -6,8 +6,24 @@
 //! anything is written, refused while a move runs, and written whole
 //! between two control steps (the caller holds the controller, so neither loop sees half of it).
 //! Units as in `crate::params` and `crate::control::piezo`.
+//!
+//! The piezo law (issue 35, `crate::control::select`): which one runs, and the film's measured
+//! static gain and feedthrough its design rules read. A change of law, and any change that
+//! redesigns a law other than the paper's rate law (the measured static gain, the window), is
+//! taken only while the piezo output is off: the drive
+//! disarmed (amplifiers disabled, 0 V) or in its fault state ([`TuneError::Armed`] otherwise).
+//! The new law then starts at rest, and arming restarts it at rest again: its first command
+//! is its response to one film sample from zero state (0 V for the rate law, a fraction of a
+//! volt for IRC and PPF), not a step from whatever the old law was commanding. Switching
+//! while armed has no bumpless form in general: the laws' states mean different things (a
+//! filtered derivative, two filtered positions, an integral), so no state of the new law
+//! reproduces the old one's command, and a zero-state start would step the patch's voltage
+//! from the holding command to about 0 V, exciting the modes the law is there to damp, on a
+//! law that has not yet run on this arm. The rate law's own gains keep their rule (changed
+//! while holding, the filter restarting at rest), which bring-up relies on.
 
 use crate::control::piezo::{PiezoGains, PiezoLaw};
+use crate::control::select::{DesignError, PiezoLawKind, PiezoSelect, PiezoSetup};
 use crate::controller::Controller;
 use crate::drive::Mode;
 use crate::real::Real;
@@ -32,6 +48,12 @@ pub enum Tunable {
     VaMax,
     /// Bottom of the piezo amplifier's window [V] (negative).
     VaMin,
+    /// The piezo law, by its code (`PiezoLawKind`).
+    PiezoLaw,
+    /// The film's measured static gain `G(0)` [V/V] (0: not measured).
+    FilmStatic,
+    /// The film's measured feedthrough `F̂` [V/V].
+    FilmFeedthrough,
 }
 
 /// Why a parameter cannot be read or written.
@@ -44,6 +66,13 @@ pub enum TuneError {
     OutOfRange,
     /// Not while a move or a stop runs.
     Moving,
+    /// Only while the piezo output is off (the drive disarmed or faulted): a change of the
+    /// piezo law or of the numbers a law other than the rate law is designed from (module
+    /// docs).
+    Armed,
+    /// The law's design rule needs the film's static gain measured (`film_static`, larger
+    /// than the controller's two modes' share; `flexarm bringup`'s film step).
+    Unidentified,
 }
 
 /// The smallest torque limit [`Tuning::set`] accepts, as a share of the board's ceiling: 1 %
@@ -64,6 +93,13 @@ fn slot<X>(v: Option<&mut X>) -> Result<&mut X, TuneError> {
 pub struct Tuning<T> {
     /// The piezo gains in force.
     pub piezo: PiezoGains<T>,
+    /// The piezo law in force and the film's measured numbers its design reads (`rate` is
+    /// [`Self::piezo`]'s copy, ignored: [`Self::setup`]).
+    pub law: PiezoLawKind,
+    /// The film's measured static gain `G(0)` [V/V] (0: not measured).
+    pub film_static: T,
+    /// The film's measured feedthrough `F̂` [V/V].
+    pub film_feedthrough: T,
     /// The piezo loop's period [s].
     pub piezo_period: T,
     /// Largest torque limit the drives allow [N·m].
@@ -88,6 +124,19 @@ impl<T: Real> Tuning<T> {
             Tunable::TauMax(i) => at2(&l.tau_max, i),
             Tunable::VaMax => Ok(l.v_a_max),
             Tunable::VaMin => Ok(l.v_a_min),
+            Tunable::PiezoLaw => Ok(T::c(f64::from(self.law.code()))),
+            Tunable::FilmStatic => Ok(self.film_static),
+            Tunable::FilmFeedthrough => Ok(self.film_feedthrough),
+        }
+    }
+
+    /// What the piezo law is built from.
+    pub fn setup(&self) -> PiezoSetup<T> {
+        PiezoSetup {
+            law: self.law,
+            rate: self.piezo,
+            film_static: self.film_static,
+            film_feedthrough: self.film_feedthrough,
         }
     }
 
@@ -131,6 +180,7 @@ impl<T: Real> Tuning<T> {
             return Err(TuneError::OutOfRange);
         }
         let (mut gains, mut limits, mut piezo) = (ctrl.motor.gains, ctrl.motor.limits, self.piezo);
+        let mut setup = self.setup();
         match p {
             Tunable::Kp(i) => *slot(gains.kp.get_mut(i))? = value,
             Tunable::Lambda(i) => *slot(gains.lambda.get_mut(i))? = value,
@@ -140,7 +190,13 @@ impl<T: Real> Tuning<T> {
             Tunable::TauMax(i) => *slot(limits.tau_max.get_mut(i))? = value,
             Tunable::VaMax => limits.v_a_max = value,
             Tunable::VaMin => limits.v_a_min = value,
+            Tunable::PiezoLaw => {
+                setup.law = PiezoLawKind::from_code(value.to_f32()).ok_or(TuneError::OutOfRange)?
+            }
+            Tunable::FilmStatic => setup.film_static = value,
+            Tunable::FilmFeedthrough => setup.film_feedthrough = value,
         }
+        setup.rate = piezo;
         let law = PiezoLaw::with_window(&piezo, self.piezo_period, limits.v_a_min, limits.v_a_max);
         // The board's ceilings and the torque limits' floor, and a filter corner below the
         // piezo loop's Nyquist rate.
@@ -167,12 +223,46 @@ impl<T: Real> Tuning<T> {
         {
             return Err(TuneError::OutOfRange);
         }
+        // The selected law, redesigned when what it is built from changed.
+        let old = self.setup();
+        let kind = setup.law;
+        let window = matches!(p, Tunable::VaMax | Tunable::VaMin);
+        let redesign = kind != old.law
+            || (kind.needs_identification() && (setup.film_static != old.film_static || window));
+        let selected = if redesign {
+            if !matches!(mode, Mode::Disarmed | Mode::Fault) {
+                return Err(TuneError::Armed);
+            }
+            let modes = &ctrl.motor.model.params.modes;
+            Some(
+                PiezoSelect::design(
+                    &setup,
+                    modes,
+                    &ctrl.patch,
+                    self.piezo_period,
+                    limits.v_a_min,
+                    limits.v_a_max,
+                )
+                .map_err(|e| match e {
+                    DesignError::Unidentified => TuneError::Unidentified,
+                    DesignError::Invalid => TuneError::OutOfRange,
+                })?,
+            )
+        } else {
+            None
+        };
         ctrl.motor.gains = gains;
         ctrl.motor.limits = limits;
-        if piezo != self.piezo || matches!(p, Tunable::VaMax | Tunable::VaMin) {
+        if piezo != self.piezo || window {
             ctrl.piezo = law;
             self.piezo = piezo;
         }
+        if let Some(l) = selected {
+            ctrl.install_piezo(l);
+        }
+        self.law = kind;
+        self.film_static = setup.film_static;
+        self.film_feedthrough = setup.film_feedthrough;
         Ok(())
     }
 }

@@ -207,3 +207,81 @@ fn the_irc_rule_adds_a_feedthrough_beyond_the_static_gain_and_integrates() {
     assert!((u - 1000.0 * 100.0 * T * 0.5).abs() < 1e-9, "{u}");
     assert!(!Irc::new(&IrcGains { gamma: -1.0, ..g }, T, -200.0, 200.0).is_valid());
 }
+
+/// The controller runs the law it was given (`Controller::design_piezo`, issue 35): the PPF law's
+/// command exactly, the same film checks and safe state as the rate law (disarmed 0 V, a sample
+/// out of range or not finite latches its fault and 0 V), and a law its rule refuses leaves
+/// none running with `InvalidConfig` latched.
+#[test]
+fn the_controller_runs_the_selected_law_with_the_same_checks() {
+    use flexarm_core::Fault;
+    use flexarm_core::control::motor::MotorLaw;
+    use flexarm_core::control::select::{PiezoLawKind, PiezoSelect, PiezoSetup, identified_loop};
+    use flexarm_core::controller::Controller;
+    use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
+    use flexarm_core::trajectory::JointTrajectory;
+    let fresh = || {
+        Controller::<f32>::paper(
+            MotorLaw::Tracking,
+            JointTrajectory::Hold(Vector2::zeros()),
+            1e-4,
+            1e-3,
+            gain(&GAIN_1KHZ),
+        )
+    };
+    let mut c = fresh();
+    let two_modes = -identified_loop(&c.motor.model.params.modes, &c.patch, 0.0, 0.0).direct;
+    let setup = PiezoSetup {
+        law: PiezoLawKind::Ppf,
+        rate: PiezoGains::default(),
+        film_static: two_modes,
+        film_feedthrough: 0.0,
+    };
+    assert_eq!(c.design_piezo(&setup, 1e-4), Ok(()));
+    assert_eq!(c.selected(), PiezoLawKind::Ppf);
+    let l = &c.motor.limits;
+    let mut law = PiezoSelect::design(
+        &setup,
+        &c.motor.model.params.modes,
+        &c.patch,
+        1e-4,
+        l.v_a_min,
+        l.v_a_max,
+    )
+    .unwrap();
+    for k in 0..200 {
+        let v_f = 0.01 * (k as f32 * 0.1).sin();
+        assert_eq!(c.piezo_step(v_f), law.step(v_f), "step {k}");
+    }
+    // Disarmed: 0 V and no fault; armed again, the law starts at rest.
+    c.set_armed(false);
+    assert_eq!(c.piezo_step(0.5), 0.0);
+    c.set_armed(true);
+    law.reset();
+    assert_eq!(c.piezo_step(0.5), law.step(0.5));
+    // Out of range, then not finite: the fault and 0 V.
+    let mut d = c;
+    assert_eq!(d.piezo_step(1e6), 0.0);
+    assert_eq!(d.fault(), Some(Fault::OutOfRange));
+    assert_eq!(c.piezo_step(f32::NAN), 0.0);
+    assert_eq!(c.fault(), Some(Fault::NonFinite));
+    // Off: 0 V, no fault.
+    let mut off = fresh();
+    let setup_off = PiezoSetup {
+        law: PiezoLawKind::Off,
+        ..setup
+    };
+    assert_eq!(off.design_piezo(&setup_off, 1e-4), Ok(()));
+    assert_eq!(off.piezo_step(0.5), 0.0);
+    assert_eq!(off.fault(), None);
+    // Refused by its rule (the static gain not measured): none runs, InvalidConfig.
+    let mut bad = fresh();
+    let unmeasured = PiezoSetup {
+        film_static: 0.0,
+        ..setup
+    };
+    assert!(bad.design_piezo(&unmeasured, 1e-4).is_err());
+    assert_eq!(bad.selected(), PiezoLawKind::Off);
+    assert_eq!(bad.fault(), Some(Fault::InvalidConfig));
+    assert_eq!(bad.piezo_step(0.5), 0.0);
+}

@@ -31,11 +31,22 @@ pub const TIMER_CLOCK_HZ: u32 = 84_000_000;
 /// (`firmware/piezo.toml` or an identified `model.toml`) in this board's configuration,
 /// generated whole with its hash by `cargo sim firmware-params`, so the firmware computes
 /// neither.
-#[cfg(feature = "qemu")]
+#[cfg(all(feature = "qemu", not(feature = "piezo-ppf")))]
 pub const CONFIG: BoardConfig = generated::QEMU;
 /// [`CONFIG`]'s hash (`BoardConfig::hash`): the handshake's and the boot log's.
-#[cfg(feature = "qemu")]
+#[cfg(all(feature = "qemu", not(feature = "piezo-ppf")))]
 pub const CONFIG_HASH: u32 = generated::QEMU_HASH;
+/// The QEMU board's configuration with positive position feedback as its boot law (the
+/// `piezo-ppf` build, issue 35), designed from the model's film static gain.
+#[cfg(feature = "piezo-ppf")]
+pub const CONFIG: BoardConfig = BoardConfig {
+    piezo_law: flexarm_core::control::select::PiezoLawKind::Ppf,
+    ..generated::QEMU
+};
+/// [`CONFIG`]'s hash: the generated one names the paper's law, so this build has none of its
+/// own (0: no host configuration matches it).
+#[cfg(feature = "piezo-ppf")]
+pub const CONFIG_HASH: u32 = 0;
 /// Everything this board boots with (see the QEMU board's).
 #[cfg(not(feature = "qemu"))]
 pub const CONFIG: BoardConfig = generated::HARDWARE;

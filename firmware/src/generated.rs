@@ -11,6 +11,7 @@
 
 use flexarm_core::control::motor::MotorLaw;
 use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
+use flexarm_core::control::select::PiezoLawKind;
 use flexarm_core::drive::MoveLimits;
 use flexarm_core::homing::{Config as HomingConfig, JointHoming, Method};
 use flexarm_core::motion::{MotionLimits, Thermal};
@@ -104,6 +105,9 @@ pub const HARDWARE: BoardConfig = BoardConfig {
         k_c: K_C,
         cutoff_hz: 1e2,
     },
+    piezo_law: PiezoLawKind::Off,
+    film_static: 0e0,
+    film_feedthrough: 0e0,
     limits: Limits {
         tau_max: Vector2::new(1e1, 1e1),
         v_a_max: 1.75e2,
@@ -156,7 +160,7 @@ pub const HARDWARE: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`HARDWARE`], the handshake's `params_hash`.
-pub const HARDWARE_HASH: u32 = 0xc084b642;
+pub const HARDWARE_HASH: u32 = 0xfb3bc2a2;
 
 /// Everything the QEMU board boots with (`flexarm_machine::BoardConfig::for_board` on this
 /// model): its hash is [`QEMU_HASH`].
@@ -178,6 +182,9 @@ pub const QEMU: BoardConfig = BoardConfig {
         k_c: K_C,
         cutoff_hz: 1e2,
     },
+    piezo_law: PiezoLawKind::Rate,
+    film_static: 4.780624e-4,
+    film_feedthrough: 0e0,
     limits: Limits {
         tau_max: Vector2::new(1e1, 1e1),
         v_a_max: 2e2,
@@ -230,4 +237,4 @@ pub const QEMU: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`QEMU`], the handshake's `params_hash`.
-pub const QEMU_HASH: u32 = 0x7b199189;
+pub const QEMU_HASH: u32 = 0x6af44892;

@@ -298,6 +298,7 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
          \n\
          use flexarm_core::control::motor::MotorLaw;\n\
          use flexarm_core::control::piezo::{{PiezoGains, PiezoPatch}};\n\
+         use flexarm_core::control::select::PiezoLawKind;\n\
          use flexarm_core::drive::MoveLimits;\n\
          use flexarm_core::homing::{{Config as HomingConfig, JointHoming, Method}};\n\
          use flexarm_core::motion::{{MotionLimits, Thermal}};\n\
@@ -447,6 +448,9 @@ fn config_literal(c: &BoardConfig, gain: &str) -> String {
         k_c: K_C,
         cutoff_hz: {cutoff_hz},
     }},
+    piezo_law: PiezoLawKind::{piezo_law:?},
+    film_static: {film_static},
+    film_feedthrough: {film_feedthrough},
     limits: Limits {{
         tau_max: {tau_max},
         v_a_max: {v_a_max},
@@ -508,6 +512,9 @@ fn config_literal(c: &BoardConfig, gain: &str) -> String {
         epsilon_floor = f(g.epsilon_floor),
         mu = f(g.mu),
         cutoff_hz = f(c.piezo.cutoff_hz),
+        piezo_law = c.piezo_law,
+        film_static = f(c.film_static),
+        film_feedthrough = f(c.film_feedthrough),
         tau_max = v2(l.tau_max),
         v_a_max = f(l.v_a_max),
         v_a_min = f(l.v_a_min),

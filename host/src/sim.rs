@@ -19,6 +19,7 @@ use flexarm_core::control::irc::{Irc, IrcGains};
 use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
 use flexarm_core::control::ppf::{Ppf, PpfGains};
+use flexarm_core::control::select::PiezoLawKind;
 use flexarm_core::controller::Controller;
 use flexarm_core::indices::{L2Norm, TailMean};
 use flexarm_core::model::Model;
@@ -30,7 +31,7 @@ use flexarm_core::trajectory::{Circle, JointTrajectory, Trapezoid};
 use flexarm_core::{Fault, Vector2, Vector4};
 use flexarm_link::msg::{Board, Param, Reply};
 use flexarm_machine::BoardConfig;
-use flexarm_machine::config::GainTable;
+use flexarm_machine::config::{GainTable, model_film_static};
 
 use crate::plant::{Diverged, ModelPlant, Plant, State};
 use crate::rig::{PlantBoard, Rig};
@@ -507,6 +508,11 @@ impl SimConfig {
         c.law = self.law;
         c.gains = self.gains;
         c.piezo = piezo;
+        // A study's board runs the paper's rate law with this run's gains (the hardware board
+        // ships the loop off until commissioning, `BoardConfig::for_board`), and knows the
+        // film's static gain its model predicts, so a run can select the other laws.
+        c.piezo_law = PiezoLawKind::Rate;
+        c.film_static = model_film_static(&c.arm, &c.patch);
         c.limits = self.limits;
         c.motion = MotionLimits::default_for(motor_hz);
         c.piezo_hz = piezo_hz;

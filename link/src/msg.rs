@@ -353,6 +353,11 @@ pub enum Refusal {
     Unsupported,
     /// A joint is neither homed nor declared: `Home` (or `DeclareHome`) first.
     NotHomed,
+    /// Only while the piezo output is off: disarm first (a change of the piezo law or of
+    /// what a law beside the paper's is designed from).
+    Armed,
+    /// The piezo law's design rule needs the film's static gain measured first.
+    Unidentified,
 }
 
 /// The handshake's answer.

@@ -67,6 +67,17 @@ macro_rules! for_each_param {
                 "a constant added to the piezo command, within the amplifier's window, for \
 bring-up and identification: written only while armed and holding, back to 0 \
 as soon as the drive leaves holding";
+            FilmStatic "film_static" "V/V" (0.0, 1.0) fixed {film_static} tuning(FilmStatic)
+                "the film's static gain `G(0) = V_f/V_a` measured on the arm (`flexarm bringup`'s \
+film step), which the IRC and PPF laws are designed from; 0: not measured";
+            FilmFeedthrough "film_feedthrough" "V/V" (-1.0, 1.0) fixed {film_feedthrough}
+                tuning(FilmFeedthrough)
+                "the film's feedthrough `F̂`: its jump right after a step of `V_a`, per volt \
+(`flexarm bringup`'s film step; recorded, no law on the board reads it)";
+            PiezoLaw "piezo_law" "code" (0.0, 3.0) fixed {piezo_law} tuning(PiezoLaw)
+                "the piezo law (`flexarm_core::control::select`): 0 off, 1 rate (Eq. 17), 2 IRC \
+(integral resonant control), 3 PPF (positive position feedback); the console takes the \
+names; changed only while disarmed, the new law starting at rest";
         }
     };
 }

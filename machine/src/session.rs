@@ -583,6 +583,8 @@ fn tune_refusal(e: TuneError) -> Refusal {
         TuneError::Unknown => Refusal::UnknownParam,
         TuneError::OutOfRange => Refusal::OutOfRange,
         TuneError::Moving => Refusal::Moving,
+        TuneError::Armed => Refusal::Armed,
+        TuneError::Unidentified => Refusal::Unidentified,
     }
 }
 

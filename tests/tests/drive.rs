@@ -338,6 +338,16 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
     let mut b = Bench::new(Vector2::zeros());
     // The board's: its piezo period, its ceilings (10 N·m, the hardware's ±175 V window).
     let mut t = b.rig.cfg.tuning();
+    // The hardware board ships the piezo loop off (issue 35), nothing measured: the laws a
+    // design rule builds are refused, the paper's rate law is taken (disarmed).
+    use flexarm_core::control::select::PiezoLawKind;
+    assert_eq!(b.rig.control.ctrl.selected(), PiezoLawKind::Off);
+    assert_eq!(
+        b.tune(&mut t, Tunable::PiezoLaw, 3.0),
+        Err(TuneError::Unidentified)
+    );
+    b.tune(&mut t, Tunable::PiezoLaw, 1.0).unwrap();
+    assert_eq!(b.rig.control.ctrl.selected(), PiezoLawKind::Rate);
     // At rest: applied, and read back. (A K_p whose velocity loop runs at 0.99 of the rate
     // the period allows is accepted, 1.01 refused: `Model::velocity_loop_rate`.)
     let kp = b.rig.control.ctrl.motor.gains.kp;

@@ -51,22 +51,23 @@ impl<T: Real> IdentifiedLoop<T> {
     /// The loop's static gain `G(0) = Σ_j g_j/ω_j² + D̂` [V/V]: what the film reads per
     /// actuator volt held still.
     pub fn static_gain(&self) -> T {
-        let w2 = self.omega.component_mul(&self.omega);
-        self.film_gain.component_div(&w2).sum() + self.direct
+        // Written out (the firmware designs its laws from it in the link's idle task, whose
+        // stack the iterator adapters deepened).
+        let (w, g) = (&self.omega, &self.film_gain);
+        g.x / (w.x * w.x) + g.y / (w.y * w.y) + self.direct
     }
 
     /// Every value finite, `ω_j > 0`, `g_j > 0` (a collocated pair), `G(0) > 0`.
     pub fn is_valid(&self) -> bool {
-        let finite = self
-            .omega
-            .iter()
-            .chain(self.zeta.iter())
-            .chain(self.film_gain.iter())
-            .chain([self.direct, self.feedthrough].iter())
+        let (w, z, g) = (&self.omega, &self.zeta, &self.film_gain);
+        let finite = [w.x, w.y, z.x, z.y, g.x, g.y, self.direct, self.feedthrough]
+            .into_iter()
             .all(|v| v.finite());
         finite
-            && self.omega.iter().all(|w| *w > T::zero())
-            && self.film_gain.iter().all(|g| *g > T::zero())
+            && w.x > T::zero()
+            && w.y > T::zero()
+            && g.x > T::zero()
+            && g.y > T::zero()
             && self.static_gain() > T::zero()
     }
 }

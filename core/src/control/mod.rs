@@ -5,7 +5,7 @@
 //! - [`piezo`]: the piezo patch (Eqs. 17–19) and its rate-feedback law.
 //! - [`motor`]: the complete motor step the firmware and the simulator both call.
 //! - Piezo laws beside the paper's, robust to the film's feedthrough and to the modes the
-//!   controller does not know (issue 35; not wired into the controller yet): [`ppf`] (positive
+//!   controller does not know (issue 35; which one runs: [`select`]): [`ppf`] (positive
 //!   position feedback), [`irc`] (integral resonant control), [`cancel`] (rate feedback with the
 //!   identified feedthrough subtracted); [`linear`] has what they share (their linear form and
 //!   the identified loop their design rules start from).
@@ -24,4 +24,5 @@ pub mod motor;
 pub mod piezo;
 pub mod ppf;
 pub mod robust;
+pub mod select;
 pub mod tracking;

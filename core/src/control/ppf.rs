@@ -64,9 +64,9 @@ impl<T: Real> PpfGains<T> {
             return None;
         }
         let total = T::one() / (T::c(MARGIN) * id.static_gain());
-        let w2 = id.omega.component_mul(&id.omega);
-        let statics = id.film_gain.component_div(&w2);
-        let sum = statics.sum();
+        let (w, g) = (&id.omega, &id.film_gain);
+        let statics = crate::Vector2::new(g.x / (w.x * w.x), g.y / (w.y * w.y));
+        let sum = statics.x + statics.y;
         let filter = |s: T, w: T| PpfFilter {
             gain: total * s / sum,
             freq_hz: T::c(TUNING) * w / T::c(core::f64::consts::TAU),
