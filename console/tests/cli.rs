@@ -814,12 +814,14 @@ fn config_dump_diff_and_restore() {
     }
     assert!(dump.contains("params_hash = \"12345678\"") && dump.contains("build default ?"));
     // (The stand-in answers 30 to every get; a board's va_min is negative, its piezo law a
-    // code 0–3 and the film's gains fractions of a volt per volt.)
+    // code 0–3, the film's gains fractions of a volt per volt and the stall check's speed
+    // error a fraction of a rad/s.)
     let dump = dump
         .replace("\nva_min = 30.0", "\nva_min = -30.0")
         .replace("\npiezo_law = 30.0", "\npiezo_law = 1.0")
         .replace("\nfilm_static = 30.0", "\nfilm_static = 0.0")
-        .replace("\nfilm_feedthrough = 30.0", "\nfilm_feedthrough = 0.0");
+        .replace("\nfilm_feedthrough = 30.0", "\nfilm_feedthrough = 0.0")
+        .replace("\nstall_speed_error = 30.0", "\nstall_speed_error = 0.1");
     let file = dir.join("dump.toml");
     std::fs::write(&file, dump.replace("\nkc = 30.0", "\nkc = 3.0")).unwrap();
     let config = |what: &str, file: &std::path::Path| {
@@ -838,7 +840,7 @@ fn config_dump_diff_and_restore() {
     assert!(out.contains("va_min: board 30 V, file -30 V"), "{out}");
     assert!(
         out.contains(&format!(
-            "config diff: 5 of {} differ",
+            "config diff: 6 of {} differ",
             flexarm_link::params::PARAMS.len()
         )),
         "{out}"

@@ -340,7 +340,11 @@ fn at_speed_with(
     let target = speed * (move_time - ramp);
     let mut r = Run::new(failure(from), Vector2::zeros());
     if let Some(e) = speed_error {
-        r.rig.drive.motion.stall_speed_error = e;
+        // Over the link, as an operator commissioning the arm would.
+        let param = flexarm_link::params::Param::StallSpeedError;
+        let done = r.rig.answer(flexarm_link::Command::Set(param, e));
+        assert_eq!(done, flexarm_link::Reply::Done);
+        assert_eq!(r.rig.drive.motion.stall_speed_error, e);
     }
     r.rig.arm().unwrap();
     r.run(0.1);

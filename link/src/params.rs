@@ -24,7 +24,8 @@ use serde::{Deserialize, Serialize};
 ///   (`{}` when it has none: it boots at 0);
 /// - `home`: where the running board keeps it: `tuning(Tunable)` (the controller's, through
 ///   `flexarm_core::tuning`), `drive(link_timeout)` (the link watchdog, in seconds on the wire,
-///   in motor periods in the drive) or `bias` (the piezo bias, `flexarm_machine::Control`).
+///   in motor periods in the drive), `drive(stall_speed_error)` (the motion checks' limit) or
+///   `bias` (the piezo bias, `flexarm_machine::Control`).
 #[macro_export]
 macro_rules! for_each_param {
     ($m:ident) => {
@@ -78,6 +79,12 @@ film step), which the IRC and PPF laws are designed from; 0: not measured";
                 "the piezo law (`flexarm_core::control::select`): 0 off, 1 rate (Eq. 17), 2 IRC \
 (integral resonant control), 3 PPF (positive position feedback); the console takes the \
 names; changed only while disarmed, the new law starting at rest";
+            StallSpeedError "stall_speed_error" "rad/s" (1e-4, 10.0) fixed
+                {motion.stall_speed_error} drive(stall_speed_error)
+                "how far the observer's joint speed may be off the joint's, for the stall check's \
+travel bound (`flexarm_core::motion`, docs/safety.md): 0.1 by default (an arm its model does \
+not know), 0.005 once the arm's model is identified; smaller catches a frozen encoder sooner \
+at low speed";
         }
     };
 }

@@ -313,6 +313,7 @@ impl Session {
                     Err(e) => Reply::Refused(tune_refusal(e)),
                 },
                 Home::LinkTimeout => Reply::Value(drive.link_timeout as f32 / id.motor_hz as f32),
+                Home::StallSpeedError => Reply::Value(drive.motion.stall_speed_error),
                 Home::Bias => Reply::Value(control.piezo_bias),
             },
             Command::Set(p, v) => {
@@ -344,6 +345,10 @@ impl Session {
                             return Reply::Refused(Refusal::OutOfRange);
                         }
                         drive.link_timeout = periods as u32;
+                        Reply::Done
+                    }
+                    Home::StallSpeedError => {
+                        drive.motion.stall_speed_error = v;
                         Reply::Done
                     }
                     // Within the amplifier's window, while the drive holds.
@@ -547,6 +552,8 @@ pub enum Home {
     Tuning(Tunable),
     /// The drive's link watchdog.
     LinkTimeout,
+    /// The stall check's speed error (`flexarm_core::motion::MotionLimits::stall_speed_error`).
+    StallSpeedError,
     /// The piezo bias ([`Control::piezo_bias`]).
     Bias,
 }
@@ -571,6 +578,7 @@ macro_rules! session_params {
     };
     (@home tuning ($($t:tt)*)) => { Home::Tuning(Tunable::$($t)*) };
     (@home drive (link_timeout)) => { Home::LinkTimeout };
+    (@home drive (stall_speed_error)) => { Home::StallSpeedError };
     (@home bias) => { Home::Bias };
     (@moving moving) => { true };
     (@moving fixed) => { false };
