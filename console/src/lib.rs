@@ -22,7 +22,9 @@ pub mod live;
 pub mod params;
 pub mod qemu;
 pub mod record;
+pub mod shell;
 pub mod transport;
+pub mod tree;
 pub mod waypoints;
 
 pub use client::{Client, ConsoleError};

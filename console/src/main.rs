@@ -76,6 +76,10 @@ enum ConfigAction {
 enum Action {
     /// The handshake and the status: mode, fault, loads, counters.
     Status,
+    /// Every value the board reports, by name, as TOML: the handshake, each status field,
+    /// every parameter with its unit, one telemetry frame of every channel with its unit and
+    /// meaning (tview's left pane; `flexarm live` plots them).
+    Tree,
     /// Enable the amplifiers, holding the pose (refused until every joint is homed or
     /// declared: `home`).
     Arm,
@@ -264,6 +268,12 @@ enum Action {
         #[arg(long)]
         force: bool,
     },
+    /// An interactive session on one connection: the commands above, typed without `flexarm`
+    /// and its connection options, with history (this session's) and completion of commands,
+    /// options and parameter names (Tab); `help` lists them, `quit` or end of input ends it.
+    /// Each command is checked before it is sent, as on the command line; a failed one prints
+    /// its line and the session goes on.
+    Shell,
 }
 
 #[derive(Subcommand, Clone)]
@@ -315,12 +325,7 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(e) => {
-            let text = e.to_string();
-            let first = text.lines().next().unwrap_or("bad command line");
-            eprintln!(
-                "flexarm: {} (flexarm --help)",
-                first.trim_start_matches("error: ")
-            );
+            eprintln!("flexarm: {}", usage_line(&e));
             return ExitCode::FAILURE;
         }
     };
@@ -333,68 +338,28 @@ fn main() -> ExitCode {
     }
 }
 
+/// A usage mistake's first line, with where help is.
+fn usage_line(e: &clap::Error) -> String {
+    let text = e.to_string();
+    let first = text.lines().next().unwrap_or("bad command line");
+    format!("{} (flexarm --help)", first.trim_start_matches("error: "))
+}
+
+/// One line of `flexarm shell`: a command without `flexarm` and the connection's options.
+#[derive(Parser)]
+#[command(name = "flexarm", no_binary_name = false, disable_version_flag = true)]
+struct Line {
+    #[command(subcommand)]
+    command: Action,
+}
+
 fn run(cli: Cli) -> Result<(), ConsoleError> {
-    check_arguments(&cli)?;
-    if let Action::Get { name } = &cli.command
-        && name == "list"
-    {
-        print!("{}", params::list());
-        return Ok(());
+    flexarm_console::check::up_to("--wait", cli.wait, 600.0, "s")?;
+    check_arguments(&cli.command)?;
+    if let Some(done) = offline(&cli.command) {
+        return done;
     }
-    // Offline: a trace's figure, the shell's completions.
-    match &cli.command {
-        Action::Plot { file, out, force } => {
-            let names = record::plot(file, out, *force)?;
-            println!("plot: wrote {} in {}", names.join(", "), out.display());
-            return Ok(());
-        }
-        Action::Completions { shell } => {
-            clap_complete::generate(
-                *shell,
-                &mut <Cli as clap::CommandFactory>::command(),
-                "flexarm",
-                &mut std::io::stdout(),
-            );
-            return Ok(());
-        }
-        _ => {}
-    }
-    // Offline: a recording against the simulator.
-    if let Action::Compare {
-        recording,
-        within,
-        force,
-    } = &cli.command
-    {
-        return compare(recording, *within, *force);
-    }
-    // A dump's and a model file's mistakes before any connection too.
-    let dump = match &cli.command {
-        Action::Config(ConfigAction::Diff { file } | ConfigAction::Restore { file }) => {
-            Some(flexarm_console::config::parse(file)?)
-        }
-        _ => None,
-    };
-    let model = match &cli.command {
-        Action::Config(ConfigAction::Dump { model: Some(m) }) => Some(
-            std::fs::read_to_string(m)
-                .map_err(|e| ConsoleError::Usage(format!("{}: {e}", m.display())))?,
-        ),
-        _ => None,
-    };
-    // A file's mistakes before any connection.
-    let path = match &cli.command {
-        Action::Move(MoveKind::Waypoints { file })
-        | Action::Record {
-            then: Some(MoveKind::Waypoints { file }),
-            ..
-        }
-        | Action::Live {
-            then: Some(MoveKind::Waypoints { file }),
-            ..
-        } => Some(waypoints::read(file)?),
-        _ => None,
-    };
+    let prepared = prepare(&cli.command)?;
     interrupt::install();
     // Dropped last: QEMU outlives the session's last request.
     let mut qemu = None;
@@ -420,10 +385,119 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         c.done("arm", Command::Arm)?;
         println!("arm: done");
     }
+    match cli.command {
+        Action::Shell => {
+            println!(
+                "shell: {} on {:?}; commands as on the command line, Tab completes, `help` lists them, `quit` ends",
+                c.hello.build, c.hello.board
+            );
+            flexarm_console::shell::run(
+                &mut c,
+                <Line as clap::CommandFactory>::command(),
+                &mut |c, words| {
+                    let words = std::iter::once("flexarm").chain(words.iter().map(String::as_str));
+                    let command = match Line::try_parse_from(words) {
+                        Ok(line) => line.command,
+                        // `help`, `--help`: printed, not an error.
+                        Err(e) if !e.use_stderr() => {
+                            let _ = e.print();
+                            return Ok(());
+                        }
+                        Err(e) => return Err(ConsoleError::Usage(usage_line(&e))),
+                    };
+                    check_arguments(&command)?;
+                    match offline(&command) {
+                        Some(done) => done,
+                        None => {
+                            let prepared = prepare(&command)?;
+                            execute(c, command, prepared)
+                        }
+                    }
+                },
+            )
+        }
+        command => execute(&mut c, command, prepared),
+    }
+}
+
+/// The commands that need no board (a parameter list, a trace's figure, the shell's
+/// completions, a recording against the simulator): their outcome, or `None` for the others.
+fn offline(command: &Action) -> Option<Result<(), ConsoleError>> {
+    match command {
+        Action::Get { name } if name == "list" => {
+            print!("{}", params::list());
+            Some(Ok(()))
+        }
+        Action::Plot { file, out, force } => Some(record::plot(file, out, *force).map(|names| {
+            println!("plot: wrote {} in {}", names.join(", "), out.display());
+        })),
+        Action::Completions { shell } => {
+            clap_complete::generate(
+                *shell,
+                &mut <Cli as clap::CommandFactory>::command(),
+                "flexarm",
+                &mut std::io::stdout(),
+            );
+            Some(Ok(()))
+        }
+        Action::Compare {
+            recording,
+            within,
+            force,
+        } => Some(compare(recording, *within, *force)),
+        _ => None,
+    }
+}
+
+/// What a command reads from files, read (and its mistakes reported) before any connection.
+struct Prepared {
+    /// A waypoint file's points.
+    path: Option<Vec<flexarm_link::msg::Waypoint>>,
+    /// A dump's values (`config diff`, `config restore`).
+    dump: Option<Vec<(flexarm_link::params::Param, f32)>>,
+    /// A model file's text (`config dump --model`).
+    model: Option<String>,
+}
+
+fn prepare(command: &Action) -> Result<Prepared, ConsoleError> {
+    let dump = match command {
+        Action::Config(ConfigAction::Diff { file } | ConfigAction::Restore { file }) => {
+            Some(flexarm_console::config::parse(file)?)
+        }
+        _ => None,
+    };
+    let model = match command {
+        Action::Config(ConfigAction::Dump { model: Some(m) }) => Some(
+            std::fs::read_to_string(m)
+                .map_err(|e| ConsoleError::Usage(format!("{}: {e}", m.display())))?,
+        ),
+        _ => None,
+    };
+    let path = match command {
+        Action::Move(MoveKind::Waypoints { file })
+        | Action::Record {
+            then: Some(MoveKind::Waypoints { file }),
+            ..
+        }
+        | Action::Live {
+            then: Some(MoveKind::Waypoints { file }),
+            ..
+        } => Some(waypoints::read(file)?),
+        _ => None,
+    };
+    Ok(Prepared { path, dump, model })
+}
+
+/// One command on a connected board.
+fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), ConsoleError> {
+    let Prepared { path, dump, model } = prepared;
     let done = |c: &mut Client, what: &str, command: Command| {
         c.done(what, command).map(|()| println!("{what}: done"))
     };
-    match cli.command {
+    match command {
+        Action::Shell => {
+            return Err(ConsoleError::Usage("shell: already in the shell".into()));
+        }
         Action::Status => {
             let h = &c.hello;
             println!(
@@ -432,9 +506,10 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             );
             print_status(&c.status()?);
         }
-        Action::Arm => done(&mut c, "arm", Command::Arm)?,
+        Action::Tree => print!("{}", flexarm_console::tree::tree(c)?),
+        Action::Arm => done(c, "arm", Command::Arm)?,
         Action::Home { declare: None } => {
-            let s = flexarm_console::home::home(&mut c)?;
+            let s = flexarm_console::home::home(c)?;
             println!(
                 "home: done, holding (joint 1 {}, joint 2 {})",
                 home_state(s.homing[0]),
@@ -451,7 +526,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 ));
             }
             eprintln!("{}", flexarm_console::home::DECLARE_WARNING);
-            let s = flexarm_console::home::declare(&mut c, theta)?;
+            let s = flexarm_console::home::declare(c, theta)?;
             println!(
                 "home --declare: the pose is ({}, {}) rad by the operator's word (joint 1 {}, joint 2 {})",
                 theta[0],
@@ -460,9 +535,9 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 home_state(s.homing[1])
             );
         }
-        Action::Disarm => done(&mut c, "disarm", Command::Disarm)?,
-        Action::Stop => done(&mut c, "stop", Command::Stop)?,
-        Action::Estop => done(&mut c, "estop", Command::Estop)?,
+        Action::Disarm => done(c, "disarm", Command::Disarm)?,
+        Action::Stop => done(c, "stop", Command::Stop)?,
+        Action::Estop => done(c, "estop", Command::Estop)?,
         Action::Clear => match c.request("clear", Command::Clear)? {
             Reply::Cleared(code) => println!("cleared fault {code}; the drive is disarmed"),
             r => return Err(ConsoleError::Unexpected(format!("{r:?}"))),
@@ -478,7 +553,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             let (p, unit) = params::parse(&name)?;
             let value = params::value(p, &value)?;
             done(
-                &mut c,
+                c,
                 &format!("set {name} = {value} {unit}"),
                 Command::Set(p, value),
             )?;
@@ -486,11 +561,11 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         Action::Move(m) => {
             let (what, m) = to_move(m, path.as_deref())?;
             let before = c.status()?;
-            start_move(&mut c, what, m, path.as_deref())?;
+            start_move(c, what, m, path.as_deref())?;
             println!("{what}: started");
             // Stay on the line until the move has ended: the requests feed the link watchdog,
             // which would stop a move whose host went away.
-            let ended = interrupt::follow_move(&mut c, what, &mut Vec::new(), None)?;
+            let ended = interrupt::follow_move(c, what, &mut Vec::new(), None)?;
             move_outcome(what, &before, &ended)?;
             println!("{what}: ended, holding");
         }
@@ -504,7 +579,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
         } => {
             let mv = then.map(|m| to_move(m, path.as_deref())).transpose()?;
             let mut r = record::record(
-                &mut c,
+                c,
                 seconds,
                 decimation,
                 &model,
@@ -545,7 +620,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 decimation,
                 window,
             );
-            let shown = live::run(&mut c, &mut view, &mut |c: &mut Client| match mv {
+            let shown = live::run(c, &mut view, &mut |c: &mut Client| match mv {
                 Some((what, m)) => {
                     start_move(c, what, m, path.as_deref()).map(|()| format!("{what}: started"))
                 }
@@ -555,7 +630,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             shown?;
             println!("live: {}", view.message);
         }
-        Action::Faults { out, force } => faults(&mut c, &out, force)?,
+        Action::Faults { out, force } => faults(c, &out, force)?,
         Action::Identify {
             experiment,
             taps,
@@ -578,7 +653,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             let report = match experiment.as_str() {
                 "inertia" => {
                     let plan = inertia_plan(moves);
-                    let trace = flexarm_console::identify::inertia(&mut c, &plan)?;
+                    let trace = flexarm_console::identify::inertia(c, &plan)?;
                     workflow::save_record(staging, "inertia", &trace).map_err(ConsoleError::Io)?;
                     let geometry = identify::geometry::Geometry::default();
                     workflow::save_inertia(staging, &trace, None, &geometry, None)
@@ -587,7 +662,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 }
                 "modes" => {
                     let plan = modes_plan(seconds, volts, tap);
-                    let (trace, window) = flexarm_console::identify::modes(&mut c, &plan)?;
+                    let (trace, window) = flexarm_console::identify::modes(c, &plan)?;
                     let film_range =
                         f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
                     workflow::save_record(staging, "modes", &trace).map_err(ConsoleError::Io)?;
@@ -604,7 +679,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 }
                 "decay" => {
                     let plan = decay_plan(taps, volts, spacing);
-                    let (trace, window) = flexarm_console::identify::decay(&mut c, &plan)?;
+                    let (trace, window) = flexarm_console::identify::decay(c, &plan)?;
                     let film_range =
                         f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
                     workflow::save_record(staging, "decay", &trace).map_err(ConsoleError::Io)?;
@@ -629,8 +704,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                     .1
                 }
                 _ => {
-                    let (cruises, fits) =
-                        flexarm_console::identify::friction(&mut c, &speeds, cruise)?;
+                    let (cruises, fits) = flexarm_console::identify::friction(c, &speeds, cruise)?;
                     let heading = format!(
                         "Identified on {} over the link: each joint at {} rad/s, both ways, {cruise} s of cruise averaged (`flexarm identify friction`, docs/identification.md).",
                         c.hello.build,
@@ -658,7 +732,7 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
                 nudge,
                 bias,
             };
-            let report = flexarm_console::bringup::run(&mut c, &o)?;
+            let report = flexarm_console::bringup::run(c, &o)?;
             print!("{}", report.table());
             if let Some(f) = report.failed() {
                 return Err(ConsoleError::Failed(format!(
@@ -669,13 +743,13 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
             println!("bringup: every check passed");
         }
         Action::TestAmplifierFault { state } => done(
-            &mut c,
+            c,
             &format!("test-amplifier-fault {state}"),
             Command::TestAmplifierFault(state == "on"),
         )?,
         // Offline, handled before connecting.
         Action::Compare { .. } | Action::Plot { .. } | Action::Completions { .. } => {}
-        Action::Config(action) => config(&mut c, action, model.as_deref(), dump)?,
+        Action::Config(action) => config(c, action, model.as_deref(), dump)?,
     }
     Ok(())
 }
@@ -683,17 +757,16 @@ fn run(cli: Cli) -> Result<(), ConsoleError> {
 /// Every argument against its rule before anything connects, starts QEMU or arms
 /// (`flexarm_console::check`): a mistake is one line and exit status 1 whether or not a
 /// firmware answers. A waypoint file is checked as it is read.
-fn check_arguments(cli: &Cli) -> Result<(), ConsoleError> {
+fn check_arguments(command: &Action) -> Result<(), ConsoleError> {
     use flexarm_console::check;
     use flexarm_host::identify::{self, inertia, modes};
-    check::up_to("--wait", cli.wait, 600.0, "s")?;
     let decimation = |d: u16| match d {
         0 => Err(ConsoleError::Usage(
             "--decimation 0: give 1 or more motor periods a frame".into(),
         )),
         _ => Ok(()),
     };
-    let then = match &cli.command {
+    let then = match command {
         Action::Get { name } if name != "list" => params::parse(name).map(|_| None)?,
         Action::Set { name, value } => {
             let (p, _) = params::parse(name)?;

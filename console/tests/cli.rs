@@ -995,3 +995,75 @@ fn a_declared_pose_is_warned_about_and_shown_declared() {
         "--declare takes two values",
     );
 }
+
+/// `flexarm shell` on one connection: commands as on the command line, read from its input
+/// (here a pipe: no terminal); a mistake prints its line and the session goes on; `quit` ends
+/// it with status 0. Completion comes from the command line's own definition (the unit tests
+/// of `flexarm_console::shell`).
+#[test]
+fn the_shell_runs_commands_on_one_connection() {
+    use std::io::Write as _;
+    let port = firmware(ours);
+    let mut child = Process::new(env!("CARGO_BIN_EXE_flexarm"))
+        .args(["--tcp", &format!("127.0.0.1:{port}"), "shell"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let script = "get kc\nset kc nan\nfrobnicate\nget nosuch\n\nset kc 3\nget list\nquit\nget kc\n";
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(script.as_bytes())
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{out}{err}");
+    // One connection: the stand-in firmware accepts one; every command after the first got an
+    // answer on it.
+    assert_eq!(out.matches("kc = 30 s").count(), 1, "{out}");
+    assert!(out.contains("set kc = 3 s: done"), "{out}");
+    assert!(out.contains("stall_speed_error"), "the list: {out}");
+    // Three mistakes, one line each, named as on the command line; nothing after `quit` ran.
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 3, "{err}");
+    assert!(lines.iter().all(|l| l.starts_with("flexarm: ")), "{err}");
+    assert!(
+        lines[0].contains("kc") && lines[1].contains("frobnicate"),
+        "{err}"
+    );
+    assert!(lines[2].contains("nosuch"), "{err}");
+}
+
+/// `flexarm tree`: every value by name, as TOML a script can read: the handshake, each status
+/// field the link carries, every parameter, and the telemetry (here refused by the stand-in,
+/// which says so in a comment).
+#[test]
+fn the_tree_names_every_value() {
+    let port = firmware(ours);
+    let o = flexarm(&["--tcp", &format!("127.0.0.1:{port}"), "tree"]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    let tree: toml::Table = toml::from_str(&out).unwrap();
+    assert_eq!(tree["hello"]["build"].as_str(), Some("stand-in"));
+    let status = tree["status"].as_table().unwrap();
+    for key in [
+        "mode",
+        "fault",
+        "ticks",
+        "loads",
+        "rx_line",
+        "homing",
+        "brake_engaged",
+    ] {
+        assert!(status.contains_key(key), "{key} in {out}");
+    }
+    let params = tree["parameters"].as_table().unwrap();
+    assert_eq!(params.len(), flexarm_link::params::PARAMS.len());
+    assert!(
+        out.contains("# no frame: the board refused the subscription"),
+        "{out}"
+    );
+}
