@@ -98,18 +98,19 @@ fn to_pose(c: &mut Client, pose: Vector2<f64>) -> Result<Vec<Telemetry>, Console
     interrupt::collect(c, 0.5)
 }
 
-/// Runs the experiment on the holding arm: every joint's cruises and fits.
+/// Runs the experiment on the holding arm: every joint's cruises and fits, and the record (every
+/// leg's telemetry on the board's clock, one sample per frame).
 pub fn friction(
     c: &mut Client,
     speeds: &[f64],
     cruise: f64,
-) -> Result<(Vec<Cruise>, [Friction; 2]), ConsoleError> {
+) -> Result<(Vec<Cruise>, [Friction; 2], Vec<Sample>), ConsoleError> {
     holding(c)?;
     identify::check_speeds(speeds).map_err(|e| ConsoleError::Usage(format!("--speeds: {e}")))?;
     c.subscribe_fastest(1)?;
     let mut frames = interrupt::collect(c, 0.0)?;
     let from = held(&frames);
-    let mut cruises = Vec::new();
+    let (mut cruises, mut record) = (Vec::new(), Vec::new());
     for joint in 0..2 {
         for &v in speeds {
             for leg in identify::legs(from, joint, v, cruise)
@@ -127,6 +128,9 @@ pub fn friction(
                     .map_or(0, |w| w[0].tick);
                 let cruise = identify::cruise_of(&samples(c, &frames, start), joint, leg.window)
                     .map_err(|e| ConsoleError::Unexpected(format!("{what}: {e}")))?;
+                // The record on the board's clock (uptime), every leg's frames in order: a fit
+                // of the record (`cargo sim identify friction --record`) finds the same cruises.
+                record.extend(samples(c, &frames, 0));
                 println!(
                     "identify: {what}: {:+.4} rad/s, {:+.5} N·m",
                     cruise.speed, cruise.torque
@@ -138,7 +142,7 @@ pub fn friction(
     let _ = c.ask(Command::Unsubscribe)?;
     let fits =
         identify::fit_joints(&cruises).map_err(|e| ConsoleError::Unexpected(e.to_string()))?;
-    Ok((cruises, fits))
+    Ok((cruises, fits, record))
 }
 
 /// The modes experiment (`flexarm_host::identify::modes`) on the holding arm: a move to the

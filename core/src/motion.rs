@@ -374,9 +374,9 @@ impl<T: Real> MotionMonitor<T> {
             if *runaway >= l.runaway_periods {
                 return Verdict::Trip(Fault::Runaway);
             }
-            // Stall (module docs): the least acceleration the model and the allowances leave,
-            // of one sign, while the reading stays.
+            // Stall (module docs), while the reading stays.
             let unchanged = previous.is_some_and(|p| pick(&p.theta) == thj);
+            let a = pick(&s.accel);
             // Moving: the observer's travel over the stay, less what its speed error can
             // account for, covers more than three counts, and the torques push the joint on
             // along it. (An observer whose model is off runs on past a joint that brakes
@@ -391,8 +391,8 @@ impl<T: Real> MotionMonitor<T> {
             let covered = travel.abs() - l.stall_speed_error * T::count(*stay) * period;
             frozen_reading |= *stay >= STALL_MIN_PERIODS
                 && covered >= stall_travel(l)
-                && *travel * pick(&s.accel) > T::zero();
-            let a = pick(&s.accel);
+                && *travel * a > T::zero();
+            // The least acceleration the model and the allowances leave, of one sign.
             let least = (a.abs() - pick(&friction)) / l.stall_margin;
             let sign = if least <= T::zero() {
                 0
