@@ -98,13 +98,18 @@ fn to_pose(c: &mut Client, pose: Vector2<f64>) -> Result<Vec<Telemetry>, Console
     interrupt::collect(c, 0.5)
 }
 
-/// Runs the experiment on the holding arm: every joint's cruises and fits, and the record (every
-/// leg's telemetry on the board's clock, one sample per frame).
-pub fn friction(
-    c: &mut Client,
-    speeds: &[f64],
-    cruise: f64,
-) -> Result<(Vec<Cruise>, [Friction; 2], Vec<Sample>), ConsoleError> {
+/// The friction experiment's outcome.
+pub struct FrictionRun {
+    /// Every leg's cruise.
+    pub cruises: Vec<Cruise>,
+    /// Each joint's fit.
+    pub fits: [Friction; 2],
+    /// The record: every leg's telemetry on the board's clock, one sample per frame.
+    pub record: Vec<Sample>,
+}
+
+/// Runs the experiment on the holding arm: every joint's cruises, the fits and the record.
+pub fn friction(c: &mut Client, speeds: &[f64], cruise: f64) -> Result<FrictionRun, ConsoleError> {
     holding(c)?;
     identify::check_speeds(speeds).map_err(|e| ConsoleError::Usage(format!("--speeds: {e}")))?;
     c.subscribe_fastest(1)?;
@@ -142,7 +147,11 @@ pub fn friction(
     let _ = c.ask(Command::Unsubscribe)?;
     let fits =
         identify::fit_joints(&cruises).map_err(|e| ConsoleError::Unexpected(e.to_string()))?;
-    Ok((cruises, fits, record))
+    Ok(FrictionRun {
+        cruises,
+        fits,
+        record,
+    })
 }
 
 /// The modes experiment (`flexarm_host::identify::modes`) on the holding arm: a move to the

@@ -704,9 +704,13 @@ fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), Co
                     .1
                 }
                 _ => {
-                    let (cruises, fits, trace) =
-                        flexarm_console::identify::friction(c, &speeds, cruise)?;
-                    workflow::save_record(staging, "friction", &trace).map_err(ConsoleError::Io)?;
+                    let flexarm_console::identify::FrictionRun {
+                        cruises,
+                        fits,
+                        record,
+                    } = flexarm_console::identify::friction(c, &speeds, cruise)?;
+                    workflow::save_record(staging, "friction", &record)
+                        .map_err(ConsoleError::Io)?;
                     let heading = format!(
                         "Identified on {} over the link: each joint at {} rad/s, both ways, {cruise} s of cruise averaged (`flexarm identify friction`, docs/identification.md).",
                         c.hello.build,

@@ -174,7 +174,7 @@ mod tests {
             c.candidates("get k"),
             (
                 4,
-                vec!["kc", "kp0", "kp1", "kp2", "kp3"]
+                vec!["kc", "ki0", "ki1", "kp0", "kp1", "kp2", "kp3"]
                     .into_iter()
                     .map(String::from)
                     .collect()

@@ -14,6 +14,7 @@
 //! ([`Controller::set_armed`], the drive's `crate::drive`), the piezo loop commands 0 V and the
 //! motor loop runs [`Controller::idle_step`]: the checks and the observer, no law.
 
+use crate::control::integral::Integral;
 use crate::control::motor::{MotorController, MotorLaw, MotorOutput};
 use crate::control::piezo::{PiezoGains, PiezoLaw, PiezoPatch};
 use crate::control::select::{DesignError, PiezoLawKind, PiezoSelect, PiezoSetup};
@@ -85,6 +86,8 @@ pub struct Controller<T> {
     /// Encoder angles of the previous sample [rad].
     previous: Option<Vector2<T>>,
     v_a: T,
+    /// The joints' integral action (`crate::control::integral`; idle while `K_i = 0`).
+    integral: Integral<T>,
 }
 
 impl<T: Real> Controller<T> {
@@ -126,6 +129,7 @@ impl<T: Real> Controller<T> {
             staleness: Staleness::new(stale_limit),
             previous: None,
             v_a: T::zero(),
+            integral: Integral::new(),
         };
         if !valid {
             c.trip(Fault::InvalidConfig);
@@ -236,6 +240,7 @@ impl<T: Real> Controller<T> {
         if armed && !self.armed {
             self.piezo.reset();
             self.select.reset();
+            self.integral.reset();
         }
         self.armed = armed;
         self.v_a = T::zero();
@@ -318,6 +323,7 @@ impl<T: Real> Controller<T> {
         self.open_gate();
         self.piezo.reset();
         self.select.reset();
+        self.integral.reset();
         self.v_a = T::zero();
         self.reset_observer(theta);
     }
@@ -454,10 +460,29 @@ impl<T: Real> Controller<T> {
             return None;
         }
         let out = match full {
-            Some((q, qd)) => self.motor.step(t, q, qd, &target),
-            None => self.motor.law_with(&terms_hat, t, &q_hat, &qd_hat, &target),
+            Some((q, qd)) => {
+                let target = self
+                    .integral
+                    .shift(&self.motor.gains, &target, q.xy(), qd.xy());
+                self.motor.step(t, q, qd, &target)
+            }
+            None => {
+                let target =
+                    self.integral
+                        .shift(&self.motor.gains, &target, q_hat.xy(), qd_hat.xy());
+                self.motor.law_with(&terms_hat, t, &q_hat, &qd_hat, &target)
+            }
         };
-        let out = self.check(out)?;
+        let mut out = self.check(out)?;
+        // The law's error is against the shifted target: the joints' is `θ − θ_d`.
+        out.error -= self.integral.offset(&self.motor.gains);
+        // The integral takes the encoders' error when a sample came: the estimate carries the
+        // friction the observer's model lacks as a bias (3.4e-4 rad on the truth plant), the
+        // encoders do not.
+        let measured = y.map_or(out.error, |y| y.theta - target.q);
+        let (gains, tau_max) = (self.motor.gains, self.motor.limits.tau_max);
+        self.integral
+            .update(&gains, measured, out.tau, tau_max, self.motor_period);
         // u = [τ, C_a V_a] (Eq. 18), written out: IEEE arithmetic cannot drop the `+ 0`s.
         let f = self.c_a * self.v_a;
         let u = Vector4::new(out.tau.x, out.tau.y, f.x, f.y);

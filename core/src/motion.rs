@@ -389,9 +389,8 @@ impl<T: Real> MotionMonitor<T> {
                 (0, T::zero())
             };
             let covered = travel.abs() - l.stall_speed_error * T::count(*stay) * period;
-            frozen_reading |= *stay >= STALL_MIN_PERIODS
-                && covered >= stall_travel(l)
-                && *travel * a > T::zero();
+            frozen_reading |=
+                *stay >= STALL_MIN_PERIODS && covered >= stall_travel(l) && *travel * a > T::zero();
             // The least acceleration the model and the allowances leave, of one sign.
             let least = (a.abs() - pick(&friction)) / l.stall_margin;
             let sign = if least <= T::zero() {

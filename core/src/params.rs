@@ -233,11 +233,17 @@ pub struct Gains<T> {
     /// Relative regularization `μ` of the damped least-squares map from the requested modal
     /// acceleration to joint torques [-].
     pub mu: T,
+    /// Integral rate `K_i` per joint [1/s] (`crate::control::integral`: the reference shifted
+    /// by `K_i ∫ θ̃ dt`); 0: no integral action (Eq. 7 / Eq. 16 as printed).
+    pub ki: Vector2<T>,
+    /// The most the integral may shift each joint's reference, `|K_i z|` [rad].
+    pub integral_limit: Vector2<T>,
 }
 
 impl<T: Real> Default for Gains<T> {
     /// `Λ = I`, `K_p = diag(90, 14, 0, 0)` (the paper's printed values moved to the joint rows,
-    /// see `docs/model.md`), `D_Δ = (20, 20)`, `ε = 0.1`, `φ = 0.01`, `μ = 0.1`.
+    /// see `docs/model.md`), `D_Δ = (20, 20)`, `ε = 0.1`, `φ = 0.01`, `μ = 0.1`; no integral
+    /// action (`K_i = 0`, as the paper; its limit 0.02 rad for a `K_i` set later).
     fn default() -> Self {
         let one = T::one();
         Self {
@@ -248,9 +254,16 @@ impl<T: Real> Default for Gains<T> {
             phi: Vector2::new(T::c(0.01), T::c(0.01)),
             epsilon_floor: T::c(1e-4),
             mu: T::c(0.1),
+            ki: Vector2::zeros(),
+            integral_limit: Vector2::new(T::c(0.02), T::c(0.02)),
         }
     }
 }
+
+/// The integral rate `K_i` [1/s] the boards run on both joints (`crate::control::integral`,
+/// `flexarm_machine::BoardConfig::for_board`; docs/results.md gives the evidence). The paper's
+/// gains ([`Gains::default`]) have none.
+pub const DEFAULT_KI: f64 = 5.0;
 
 /// The fastest rate of the joints' velocity loop under the paper's `K_p`: the largest
 /// eigenvalue of `M_θθ(θ2)⁻¹ K_p` over every `θ2`, for the paper's arm [1/s] (220.4 at
@@ -293,6 +306,11 @@ impl<T: Real> Gains<T> {
             non_negative("phi", g(&self.phi))?;
         }
         positive("epsilon_floor", self.epsilon_floor)?;
+        for i in 0..2 {
+            let g = |v: &Vector2<T>| v.get(i).copied().unwrap_or(T::zero());
+            non_negative("ki", g(&self.ki))?;
+            non_negative("integral_limit", g(&self.integral_limit))?;
+        }
         positive("mu", self.mu)
     }
 }

@@ -38,6 +38,8 @@ pub enum Tunable {
     Lambda(usize),
     /// `D_Δ` entry (0–1) [1/s].
     DDelta(usize),
+    /// Integral rate `K_i` of a joint (0–1) [1/s] (`crate::control::integral`).
+    Ki(usize),
     /// Piezo gain `k_c` [s].
     Kc,
     /// Piezo rate-filter corner [Hz].
@@ -119,6 +121,7 @@ impl<T: Real> Tuning<T> {
             Tunable::Kp(i) => at4(&g.kp, i),
             Tunable::Lambda(i) => at4(&g.lambda, i),
             Tunable::DDelta(i) => at2(&g.d_delta, i),
+            Tunable::Ki(i) => at2(&g.ki, i),
             Tunable::Kc => Ok(self.piezo.k_c),
             Tunable::CutoffHz => Ok(self.piezo.cutoff_hz),
             Tunable::TauMax(i) => at2(&l.tau_max, i),
@@ -140,10 +143,11 @@ impl<T: Real> Tuning<T> {
         }
     }
 
-    /// Whether a change of `K_p` or `Λ` keeps the sampled motor loop where the model says it
+    /// Whether a change of `K_p`, `Λ` or `K_i` keeps the sampled motor loop where the model says it
     /// is stable with margin: the velocity loop's fastest rate
     /// ([`crate::model::Model::velocity_loop_rate`]) and every `λ_i` times the motor period at
-    /// most 1 (the rule [`crate::params::Gains::default_for`] builds the boards' gains by; the
+    /// most 1, and so every `K_i` (the rule [`crate::params::Gains::default_for`] builds the
+    /// boards' gains by; the
     /// sampled loops diverge above 2: `K_p = 1e6` flipped the holding torque by ±4 N·m every
     /// period, issue 36). 1e-3 of slack for `f32` rounding: the QEMU board's gains sit at
     /// 0.9996. Other parameters do not move it and are not held to it.
@@ -153,7 +157,7 @@ impl<T: Real> Tuning<T> {
         p: Tunable,
         gains: &crate::params::Gains<T>,
     ) -> bool {
-        if !matches!(p, Tunable::Kp(_) | Tunable::Lambda(_)) {
+        if !matches!(p, Tunable::Kp(_) | Tunable::Lambda(_) | Tunable::Ki(_)) {
             return true;
         }
         let bound = T::c(1.0 + 1e-3);
@@ -162,7 +166,9 @@ impl<T: Real> Tuning<T> {
             .motor
             .model
             .velocity_loop_rate(Vector2::new(gains.kp.x, gains.kp.y));
-        rate * period <= bound && gains.lambda.iter().all(|l| *l * period <= bound)
+        rate * period <= bound
+            && gains.lambda.iter().all(|l| *l * period <= bound)
+            && gains.ki.iter().all(|k| *k * period <= bound)
     }
 
     /// Sets `p` to `value` when the drive is in `mode` (anything but moving or stopping).
@@ -185,6 +191,7 @@ impl<T: Real> Tuning<T> {
             Tunable::Kp(i) => *slot(gains.kp.get_mut(i))? = value,
             Tunable::Lambda(i) => *slot(gains.lambda.get_mut(i))? = value,
             Tunable::DDelta(i) => *slot(gains.d_delta.get_mut(i))? = value,
+            Tunable::Ki(i) => *slot(gains.ki.get_mut(i))? = value,
             Tunable::Kc => piezo.k_c = value,
             Tunable::CutoffHz => piezo.cutoff_hz = value,
             Tunable::TauMax(i) => *slot(limits.tau_max.get_mut(i))? = value,

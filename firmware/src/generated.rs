@@ -100,6 +100,8 @@ pub const HARDWARE: BoardConfig = BoardConfig {
         phi: Vector2::new(1e-2, 1e-2),
         epsilon_floor: 1e-4,
         mu: 1e-1,
+        ki: Vector2::new(5e0, 5e0),
+        integral_limit: Vector2::new(2e-2, 2e-2),
     },
     piezo: PiezoGains {
         k_c: K_C,
@@ -160,7 +162,7 @@ pub const HARDWARE: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`HARDWARE`], the handshake's `params_hash`.
-pub const HARDWARE_HASH: u32 = 0xfb3bc2a2;
+pub const HARDWARE_HASH: u32 = 0xcb10dc12;
 
 /// Everything the QEMU board boots with (`flexarm_machine::BoardConfig::for_board` on this
 /// model): its hash is [`QEMU_HASH`].
@@ -177,6 +179,8 @@ pub const QEMU: BoardConfig = BoardConfig {
         phi: Vector2::new(1e-2, 1e-2),
         epsilon_floor: 1e-4,
         mu: 1e-1,
+        ki: Vector2::new(5e0, 5e0),
+        integral_limit: Vector2::new(2e-2, 2e-2),
     },
     piezo: PiezoGains {
         k_c: K_C,
@@ -237,4 +241,4 @@ pub const QEMU: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`QEMU`], the handshake's `params_hash`.
-pub const QEMU_HASH: u32 = 0x6af44892;
+pub const QEMU_HASH: u32 = 0x9420f4fa;

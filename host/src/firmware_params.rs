@@ -443,6 +443,8 @@ fn config_literal(c: &BoardConfig, gain: &str) -> String {
         phi: {phi},
         epsilon_floor: {epsilon_floor},
         mu: {mu},
+        ki: {ki},
+        integral_limit: {integral_limit},
     }},
     piezo: PiezoGains {{
         k_c: K_C,
@@ -511,6 +513,8 @@ fn config_literal(c: &BoardConfig, gain: &str) -> String {
         phi = v2(g.phi),
         epsilon_floor = f(g.epsilon_floor),
         mu = f(g.mu),
+        ki = v2(g.ki),
+        integral_limit = v2(g.integral_limit),
         cutoff_hz = f(c.piezo.cutoff_hz),
         piezo_law = c.piezo_law,
         film_static = f(c.film_static),

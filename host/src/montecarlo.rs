@@ -78,7 +78,6 @@ pub fn run(
     truth: Option<TruthSpec>,
     progress: bool,
 ) -> Result<Vec<Batch>, SimError> {
-    let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
     let mut base = SimConfig {
         piezo: Some(PiezoGains::default()),
         ..SimConfig::default()
@@ -86,6 +85,18 @@ pub fn run(
     if let Some(t) = truth {
         base = base.with_truth(t)?;
     }
+    run_on(&base, levels, runs, seed, progress)
+}
+
+/// [`run`] about the configuration `base` (its arm perturbed, its gains and plant kept).
+pub fn run_on(
+    base: &SimConfig,
+    levels: &[f64],
+    runs: usize,
+    seed: u64,
+    progress: bool,
+) -> Result<Vec<Batch>, SimError> {
+    let traj = JointTrajectory::Trapezoid(Trapezoid::paper());
     let bar = if progress {
         ProgressBar::new((levels.len() * runs) as u64)
     } else {
@@ -114,7 +125,7 @@ pub fn run(
                     let cfg = SimConfig {
                         plant,
                         truth,
-                        ..base
+                        ..*base
                     };
                     let r = simulate(&cfg, &traj, false).ok().map(|(s, _)| s);
                     bar.inc(1);

@@ -1101,6 +1101,7 @@ fn run_paper(
     let mut held: Option<(State<f64>, f64)> = None;
     let motion = MotionLimits::<f32>::default_for(cfg.rates.motor_hz.round() as u32);
     let mut monitor = MotionMonitor::<f32>::new();
+    let mut integral = flexarm_core::control::integral::Integral::<f32>::new();
     let mut film_held: Option<f64> = None;
     for k in 0..steps {
         let t = k as f64 * dt;
@@ -1128,15 +1129,21 @@ fn run_paper(
             } else {
                 x
             };
-            let out = motor
-                .step(
-                    local as f32,
-                    &seen.q.cast::<f32>(),
-                    &seen.qd.cast::<f32>(),
-                    &target,
-                )
-                .map_err(|fault| SimError::Fault { fault, t })?;
             let (q32, qd32) = (seen.q.cast::<f32>(), seen.qd.cast::<f32>());
+            // The joints' integral action, as the controller runs it (none with the paper's
+            // gains).
+            let shifted = integral.shift(&motor.gains, &target, q32.xy(), qd32.xy());
+            let mut out = motor
+                .step(local as f32, &q32, &qd32, &shifted)
+                .map_err(|fault| SimError::Fault { fault, t })?;
+            out.error -= integral.offset(&motor.gains);
+            integral.update(
+                &motor.gains,
+                out.error,
+                out.tau,
+                motor.limits.tau_max,
+                motor_dt as f32,
+            );
             let (accel, inertia_inv) = predicted(&motor.model, &q32, &qd32, out.tau);
             let sample = MotionSample {
                 theta: q32.xy(),

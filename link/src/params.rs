@@ -50,6 +50,11 @@ macro_rules! for_each_param {
                 "`D_Δ` of mode 1 (Eq. 11's robust damping)";
             DDelta1 "d_delta1" "1/s" (0.0, 1e4) fixed {gains.d_delta.y} tuning(DDelta(1))
                 "`D_Δ` of mode 2";
+            Ki0 "ki0" "1/s" (0.0, 1e3) fixed {gains.ki.x} tuning(Ki(0))
+                "integral rate `K_i` of joint 1 (the reference shifted by `K_i ∫ θ̃ dt`, \
+`flexarm_core::control::integral`); 0: none, as the paper";
+            Ki1 "ki1" "1/s" (0.0, 1e3) fixed {gains.ki.y} tuning(Ki(1))
+                "integral rate `K_i` of joint 2";
             Kc "kc" "s" (0.0, 1e3) fixed {piezo.k_c} tuning(Kc)
                 "piezo gain `k_c` of `V_a = −k_c V̇_f` (Eq. 17); 0 turns the piezo loop off";
             CutoffHz "cutoff_hz" "Hz" (1e-1, 1e5) fixed {piezo.cutoff_hz} tuning(CutoffHz)

@@ -19,7 +19,7 @@ use flexarm_core::model::Model;
 use flexarm_core::motion::MotionLimits;
 use flexarm_core::observer::{Observer, film_map};
 use flexarm_core::observer_gains::gain;
-use flexarm_core::params::{ArmParams, Gains, Limits};
+use flexarm_core::params::{ArmParams, DEFAULT_KI, Gains, Limits};
 use flexarm_core::supervisor::{AmplifierMonitor, SensorLimits};
 use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::JointTrajectory;
@@ -147,7 +147,12 @@ impl BoardConfig {
             arm,
             patch,
             law: MotorLaw::Tracking,
-            gains: Gains::default_for(motor_hz),
+            // The paper's gains for the loop's rate, with the joints' integral action
+            // (issue 35: the settled error against friction; docs/results.md).
+            gains: Gains {
+                ki: Vector2::repeat(DEFAULT_KI as f32),
+                ..Gains::default_for(motor_hz)
+            },
             piezo: PiezoGains {
                 k_c,
                 ..PiezoGains::default()
@@ -312,6 +317,8 @@ impl BoardConfig {
         for v in [g.d_delta, g.epsilon, g.phi] {
             v2(&mut x, &v);
         }
+        v2(&mut x, &g.ki);
+        v2(&mut x, &g.integral_limit);
         for v in [g.epsilon_floor, g.mu, self.piezo.k_c, self.piezo.cutoff_hz] {
             x(v);
         }

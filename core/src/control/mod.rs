@@ -18,6 +18,7 @@
 //! `C_a V_a`.
 
 pub mod cancel;
+pub mod integral;
 pub mod irc;
 pub mod linear;
 pub mod motor;
