@@ -459,30 +459,39 @@ impl<T: Real> Controller<T> {
             self.trip(Fault::Singular);
             return None;
         }
+        // The joints' integral action, when the gains have it (the paper's have none: then
+        // the law runs on the target itself).
+        let ki = self.motor.gains.ki;
+        let integral = ki.x != T::zero() || ki.y != T::zero();
+        let law_target = if integral {
+            let (theta, theta_dot) = match full {
+                Some((q, qd)) => (q.xy(), qd.xy()),
+                None => (q_hat.xy(), qd_hat.xy()),
+            };
+            self.integral
+                .shift(&self.motor.gains, &target, theta, theta_dot)
+        } else {
+            target
+        };
         let out = match full {
-            Some((q, qd)) => {
-                let target = self
-                    .integral
-                    .shift(&self.motor.gains, &target, q.xy(), qd.xy());
-                self.motor.step(t, q, qd, &target)
-            }
-            None => {
-                let target =
-                    self.integral
-                        .shift(&self.motor.gains, &target, q_hat.xy(), qd_hat.xy());
-                self.motor.law_with(&terms_hat, t, &q_hat, &qd_hat, &target)
-            }
+            Some((q, qd)) => self.motor.step(t, q, qd, &law_target),
+            None => self
+                .motor
+                .law_with(&terms_hat, t, &q_hat, &qd_hat, &law_target),
         };
         let mut out = self.check(out)?;
-        // The law's error is against the shifted target: the joints' is `θ − θ_d`.
-        out.error -= self.integral.offset(&self.motor.gains);
-        // The integral takes the encoders' error when a sample came: the estimate carries the
-        // friction the observer's model lacks as a bias (3.4e-4 rad on the truth plant), the
-        // encoders do not.
-        let measured = y.map_or(out.error, |y| y.theta - target.q);
-        let (gains, tau_max) = (self.motor.gains, self.motor.limits.tau_max);
-        self.integral
-            .update(&gains, measured, out.tau, tau_max, self.motor_period);
+        if integral {
+            let gains = &self.motor.gains;
+            // The law's error is against the shifted target: the joints' is `θ − θ_d`.
+            out.error -= self.integral.offset(gains);
+            // The integral takes the encoders' error when a sample came: the estimate carries
+            // the friction the observer's model lacks as a bias (3.4e-4 rad on the truth
+            // plant), the encoders do not.
+            let measured = y.map_or(out.error, |y| y.theta - target.q);
+            let tau_max = self.motor.limits.tau_max;
+            self.integral
+                .update(gains, measured, out.tau, tau_max, self.motor_period);
+        }
         // u = [τ, C_a V_a] (Eq. 18), written out: IEEE arithmetic cannot drop the `+ 0`s.
         let f = self.c_a * self.v_a;
         let u = Vector4::new(out.tau.x, out.tau.y, f.x, f.y);

@@ -34,7 +34,7 @@ use flexarm_core::model::Model;
 use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict, predicted};
 use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
-use flexarm_core::params::{ArmParams, Gains, Limits};
+use flexarm_core::params::{ArmParams, DEFAULT_KI, Gains, Limits};
 use flexarm_core::trajectory::{JointTarget, JointTrajectory, Trapezoid};
 use flexarm_core::{Vector2, Vector4};
 
@@ -158,6 +158,18 @@ impl Consume for Vector2<f32> {
     }
 }
 
+impl Consume for flexarm_core::supervisor::Command<f32> {
+    #[inline(always)]
+    fn consume(&self) {
+        self.tau.consume();
+        self.v_a.consume();
+        // SAFETY: an empty block that only takes the value.
+        unsafe {
+            core::arch::asm!("/* {0} */", in(reg) u32::from(self.enable), options(nostack, preserves_flags))
+        }
+    }
+}
+
 impl Consume for () {
     #[inline(always)]
     fn consume(&self) {
@@ -271,6 +283,19 @@ fn call_motor_law(motor: &MotorController<f32>, s: &State) -> (Option<Vector2<f3
 #[inline(never)]
 fn call_motor_step(c: &mut Controller<f32>, t: &f32, y: &Measurement<f32>) -> (Vector2<f32>, u32) {
     timed((c, t, y), |(c, t, y)| c.motor_step(*t, Some(y)).command.tau)
+}
+
+/// [`call_motor_step`] for the controller with the boards' integral action (issue 35,
+/// `flexarm_core::control::integral`), taking the whole command (torques, piezo voltage,
+/// enable: a few instructions more than the torques alone), so its body, and with it its
+/// symbol and its timed regions, are its own (identical functions are merged).
+#[inline(never)]
+fn call_motor_step_integral(
+    c: &mut Controller<f32>,
+    t: &f32,
+    y: &Measurement<f32>,
+) -> (flexarm_core::supervisor::Command<f32>, u32) {
+    timed((c, t, y), |(c, t, y)| c.motor_step(*t, Some(y)).command)
 }
 
 #[inline(never)]
@@ -585,6 +610,25 @@ fn main() -> ! {
             gated(BUDGET_CONTROLLER_MOTOR_MEAN),
         );
         report(set, "controller_motor_first", &first, None);
+        // The same steady step with the boards' integral action (`K_i` = DEFAULT_KI on both
+        // joints, one untimed step before to start it): what the firmware runs. The C of the
+        // like-for-like comparison has no integral; this row is the integral's cost. Gated.
+        let mut integral = Stat::new();
+        for s in states.iter() {
+            let mut c = base;
+            c.motor.gains.ki = Vector2::repeat(DEFAULT_KI as f32);
+            c.reset_observer(s.y.theta);
+            black_box(c.motor_step(s.t, Some(&s.y)));
+            let (tau, n) = call_motor_step_integral(black_box(&mut c), &(s.t + 1e-3), &s.y);
+            black_box(tau);
+            integral.add(n.saturating_sub(overhead));
+        }
+        ok &= report(
+            set,
+            "controller_motor_integral",
+            &integral,
+            gated(BUDGET_CONTROLLER_MOTOR_INTEGRAL_MEAN),
+        );
         let mut c = base;
         let piezo = measure(states, overhead, |s| {
             call_piezo_step(black_box(&mut c), &s.y.v_f)
