@@ -462,14 +462,14 @@ impl<T: Real> Controller<T> {
         // The joints' integral action, when the gains have it (the paper's have none: then
         // the law runs on the target itself).
         let ki = self.motor.gains.ki;
-        let integral = ki.x != T::zero() || ki.y != T::zero();
-        let law_target = if integral {
-            let (theta, theta_dot) = match full {
+        let law_target = if ki.x != T::zero() || ki.y != T::zero() {
+            let state = match full {
                 Some((q, qd)) => (q.xy(), qd.xy()),
                 None => (q_hat.xy(), qd_hat.xy()),
             };
+            let measured = y.map(|y| y.theta);
             self.integral
-                .shift(&self.motor.gains, &target, theta, theta_dot)
+                .prepare(&self.motor.gains, &target, state, measured)
         } else {
             target
         };
@@ -480,17 +480,11 @@ impl<T: Real> Controller<T> {
                 .law_with(&terms_hat, t, &q_hat, &qd_hat, &law_target),
         };
         let mut out = self.check(out)?;
-        if integral {
-            let gains = &self.motor.gains;
-            // The law's error is against the shifted target: the joints' is `θ − θ_d`.
-            out.error -= self.integral.offset(gains);
-            // The integral takes the encoders' error when a sample came: the estimate carries
-            // the friction the observer's model lacks as a bias (3.4e-4 rad on the truth
-            // plant), the encoders do not.
-            let measured = y.map_or(out.error, |y| y.theta - target.q);
-            let tau_max = self.motor.limits.tau_max;
+        let gains = &self.motor.gains;
+        if gains.ki.x != T::zero() || gains.ki.y != T::zero() {
+            let limits = (out.tau, self.motor.limits.tau_max);
             self.integral
-                .update(gains, measured, out.tau, tau_max, self.motor_period);
+                .finish(gains, &mut out.error, limits, self.motor_period);
         }
         // u = [τ, C_a V_a] (Eq. 18), written out: IEEE arithmetic cannot drop the `+ 0`s.
         let f = self.c_a * self.v_a;

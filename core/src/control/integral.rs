@@ -25,6 +25,8 @@ use crate::trajectory::JointTarget;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Integral<T> {
     z: Vector2<T>,
+    /// The error this period's [`Self::finish`] integrates, set by [`Self::prepare`] [rad].
+    pending: Vector2<T>,
 }
 
 impl<T: Real> Default for Integral<T> {
@@ -38,6 +40,7 @@ impl<T: Real> Integral<T> {
     pub fn new() -> Self {
         Self {
             z: Vector2::zeros(),
+            pending: Vector2::zeros(),
         }
     }
 
@@ -48,7 +51,7 @@ impl<T: Real> Integral<T> {
 
     /// Forgets it (a new arm, a reset).
     pub fn reset(&mut self) {
-        self.z = Vector2::zeros();
+        *self = Self::new();
     }
 
     /// The integral's share of the reference, `K_i z` [rad]: the law's error `θ − θ_d'` less
@@ -72,6 +75,36 @@ impl<T: Real> Integral<T> {
             qd: target.qd - k.component_mul(&(theta - target.q)),
             qdd: target.qdd - k.component_mul(&(theta_dot - target.qd)),
         }
+    }
+
+    /// One period, before the law: the target it tracks ([`Self::shift`]) for the estimate
+    /// `θ`, `θ̇`, and the error the period integrates, the encoders' `measured − θ_d` when a
+    /// sample came (the estimate carries the friction the observer's model lacks as a bias,
+    /// 3.4e-4 rad on the truth plant; the encoders do not), else the estimate's.
+    pub fn prepare(
+        &mut self,
+        gains: &Gains<T>,
+        target: &JointTarget<T>,
+        (theta, theta_dot): (Vector2<T>, Vector2<T>),
+        measured: Option<Vector2<T>>,
+    ) -> JointTarget<T> {
+        self.pending = measured.unwrap_or(theta) - target.q;
+        self.shift(gains, target, theta, theta_dot)
+    }
+
+    /// One period, after the law: takes the law's error `θ − θ_d'` back to `θ − θ_d` and
+    /// integrates the prepared error over `dt` [s] with the torques commanded `tau` against
+    /// their limits `tau_max` [N·m] ([`Self::update`]).
+    pub fn finish(
+        &mut self,
+        gains: &Gains<T>,
+        error: &mut Vector2<T>,
+        (tau, tau_max): (Vector2<T>, Vector2<T>),
+        dt: T,
+    ) {
+        *error -= self.offset(gains);
+        let e = self.pending;
+        self.update(gains, e, tau, tau_max, dt);
     }
 
     /// Integrates one period `dt` [s] of the joint error `error = θ − θ_d` [rad] with the
