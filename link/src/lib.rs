@@ -29,6 +29,7 @@
 pub mod frame;
 pub mod msg;
 pub mod params;
+pub mod ring;
 
 pub use frame::{Decoder, Encoder, FrameError, MAX_FRAME, encode};
 pub use msg::{Command, DeviceMsg, Reply, Request};
