@@ -93,7 +93,9 @@ impl Serial {
         // SAFETY: BRR takes any 16-bit divider; 91 is within it.
         usart.brr().write(|w| unsafe { w.bits(brr) });
         #[cfg(feature = "hw")]
-        usart.cr3().write(|w| w.dmar().set_bit().eie().set_bit());
+        usart
+            .cr3()
+            .write(|w| w.dmar().set_bit().dmat().set_bit().eie().set_bit());
         usart.cr1().write(|w| {
             let w = w.ue().set_bit().te().set_bit().re().set_bit();
             #[cfg(feature = "hw")]
@@ -109,7 +111,9 @@ impl Serial {
     }
 }
 
-/// Sends `bytes`, waiting for the transmit register (idle task only).
+/// Sends `bytes`, waiting for the transmit register (idle task only; the QEMU board's: the
+/// hardware board's transmitter is a DMA stream, [`dma::transmit`]).
+#[cfg_attr(feature = "hw", allow(dead_code))]
 fn write_all(usart: &USART1, bytes: &[u8]) {
     for b in bytes {
         while usart.sr().read().txe().bit_is_clear() {}
@@ -135,9 +139,18 @@ pub fn frame_error(e: flexarm_link::FrameError) -> &'static str {
 #[inline(never)]
 pub fn send(serial: &mut Serial, msg: &DeviceMsgRef<'_>) -> bool {
     let Serial { usart, encoder } = serial;
+    // The hardware board's DMA may still be reading the encoder's buffer: the last frame first.
+    #[cfg(feature = "hw")]
+    dma::transmitted();
     match encoder.device(msg) {
         Ok(frame) => {
+            #[cfg(feature = "qemu")]
             write_all(usart, frame);
+            #[cfg(feature = "hw")]
+            {
+                let _ = usart;
+                dma::transmit(frame);
+            }
             true
         }
         Err(_) => false,
@@ -259,6 +272,69 @@ pub mod dma {
         ring.read::<CHUNK>(&RX_BUFFER, position)
     }
 
+    /// DMA2 stream 7's flags in HISR / HIFCR: FEIF7 (22), DMEIF7 (24), TEIF7 (25), HTIF7 (26),
+    /// TCIF7 (27).
+    const ALL7: u32 = 0b11_1101 << 22;
+    /// The transmit stream's index.
+    const TX_STREAM: usize = 7;
+    /// Polls of the transmit stream's enable bit before a frame is taken as sent: the largest
+    /// frame (`flexarm_link::MAX_FRAME` bytes, 10.85 µs each) at a poll of at least 5 cycles at
+    /// 168 MHz, twice over.
+    const TX_POLLS: u32 = flexarm_link::MAX_FRAME as u32 * 1823 / 5 * 2;
+
+    /// Waits (bounded, [`TX_POLLS`]) until the transmit stream has sent its frame: its enable
+    /// bit clears at the end of a transfer (RM0090 §10.3.12). The transmitter then never reads
+    /// USART1's SR: only the line-event interrupt does, so no read of SR by the transmitter can
+    /// join the DMA's read of DR in clearing an error flag before the interrupt has counted it.
+    pub fn transmitted() {
+        // SAFETY: stream 7 is the transmitter's, used by the idle task only ([`transmit`]).
+        let dma2 = unsafe { &*DMA2::ptr() };
+        let st = dma2.st(TX_STREAM);
+        let _ = (0..TX_POLLS).any(|_| st.cr().read().en().bit_is_clear());
+    }
+
+    /// Starts sending `frame` with DMA2 stream 7, channel 4 (USART1_TX; RM0090 table 43):
+    /// memory to peripheral, bytes, memory incremented, high priority, no interrupt; USART1's
+    /// DMAT requests a byte at each TXE. The caller keeps `frame` unchanged until
+    /// [`transmitted`] (the encoder's buffer, which [`super::send`] rewrites only after it).
+    pub fn transmit(frame: &[u8]) {
+        // SAFETY: as in [`transmitted`]; HIFCR bits of stream 7 only.
+        let dma2 = unsafe { &*DMA2::ptr() };
+        let st = dma2.st(TX_STREAM);
+        st.cr().write(|w| w.en().clear_bit());
+        let _ = (0..1000).any(|_| st.cr().read().en().bit_is_clear());
+        // SAFETY: writing 1 to HIFCR's bits clears the flags; stream 7's only.
+        dma2.hifcr().write(|w| unsafe { w.bits(ALL7) });
+        // SAFETY: the data register's address, USART1's base + 4 (RM0090 §30.6.2).
+        st.par()
+            .write(|w| unsafe { w.bits(USART1::ptr() as u32 + 4) });
+        // SAFETY: the frame is in SRAM (the encoder's buffer, a static of the idle task) and
+        // stays unchanged until the stream has sent it (the caller's contract above).
+        st.m0ar()
+            .write(|w| unsafe { w.bits(frame.as_ptr() as u32) });
+        st.ndtr()
+            .write(|w| w.ndt().set(frame.len().min(usize::from(u16::MAX)) as u16));
+        st.cr().write(|w| {
+            w.chsel()
+                .set(4)
+                .pl()
+                .high()
+                .msize()
+                .bits8()
+                .psize()
+                .bits8()
+                .minc()
+                .incremented()
+                .pinc()
+                .fixed()
+                .dir()
+                .memory_to_peripheral()
+                .pfctrl()
+                .dma()
+        });
+        st.cr().modify(|_, w| w.en().enabled());
+    }
+
     /// `true` if the DMA has written bytes that the reader has not read.
     pub fn pending(ring: &Ring) -> bool {
         Ring::written(position()) != ring.consumed()
@@ -290,8 +366,9 @@ pub mod dma {
     /// reads, a few bus cycles: the bytes of a frame end at the idle event, and the next frame
     /// starts after the host has its answer.
     pub fn line_events() -> LineEvents {
-        // SAFETY: the line-event interrupt reads SR and DR; the transmitter ([`super::Serial`])
-        // reads SR and writes DR; the DMA reads DR. Reads of SR have no side effect.
+        // SAFETY: the line-event interrupt is the only code that reads SR and DR; the DMA streams
+        // read DR (receive) and write it (transmit, [`transmit`]). Reads of SR have no side
+        // effect of their own.
         let usart = unsafe { &*USART1::ptr() };
         let mut sr = usart.sr().read();
         let mut polls = 0;
