@@ -22,7 +22,7 @@
 //! byte of guard for a write under way while the position was read). Every byte the DMA wrote
 //! is either delivered once, in order, intact, or counted lost.
 
-use core::sync::atomic::{AtomicU8, Ordering::Relaxed};
+use core::sync::atomic::{AtomicU8, Ordering::Acquire, Ordering::Relaxed, fence};
 
 /// One observation of the DMA stream: the half-buffer events counted so far (wrapping), read
 /// before `remaining`, the stream's NDTR.
@@ -129,6 +129,9 @@ impl<const N: usize> DmaRing<N> {
             lost: 0,
         };
         let written = Self::written(position());
+        // The copy's loads after the first observation's, and (below) before the second's: an
+        // acquire fence orders the reads before it ahead of everything after it.
+        fence(Acquire);
         let behind = written.wrapping_sub(self.read);
         if behind > u32::MAX / 2 {
             self.read = written;
@@ -151,6 +154,7 @@ impl<const N: usize> DmaRing<N> {
         {
             *slot = b.load(Relaxed);
         }
+        fence(Acquire);
         // What the DMA wrote over while the bytes were copied: the leading bytes that it had
         // come within the guard of by the second observation.
         let after = Self::written(position()).wrapping_sub(self.read);
