@@ -12,6 +12,9 @@
 //! - COBS removes every zero byte, so `0x00` marks the end of a frame and a receiver that
 //!   joins mid-stream, or loses bytes, resynchronizes at the next zero.
 //!
+//! The hardware board receives the stream into a circular DMA buffer; [`ring`] is its reader
+//! (which bytes are new, which the DMA overtook), pure and tested on the host.
+//!
 //! Every message has a bounded size: the largest encodes to at most [`frame::MAX_FRAME`] bytes
 //! (tested on the largest value of each message), so both ends use fixed buffers.
 //!
@@ -29,6 +32,7 @@
 pub mod frame;
 pub mod msg;
 pub mod params;
+pub mod ring;
 
 pub use frame::{Decoder, Encoder, FrameError, MAX_FRAME, encode};
 pub use msg::{Command, DeviceMsg, Reply, Request};

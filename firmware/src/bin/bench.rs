@@ -23,6 +23,8 @@
 #![allow(unsafe_code)]
 
 use core::hint::black_box;
+use core::sync::atomic::Ordering::{Acquire, Relaxed, Release};
+use core::sync::atomic::{AtomicU8, AtomicU16, AtomicU32};
 
 use cortex_m_semihosting::debug::{EXIT_FAILURE, EXIT_SUCCESS, exit};
 use defmt_semihosting as _;
@@ -389,6 +391,83 @@ fn call_rx_frame(rx: &mut Rx, frame: &Frame) -> (f32, u32) {
     })
 }
 
+/// The hardware board's receive path (issue 34) as its idle task runs it: the frame's bytes
+/// are in the receive DMA's circular buffer already (the DMA's writes take no instruction),
+/// the reader (`flexarm_link::ring::DmaRing`, chunks of 32 bytes: the firmware's
+/// `link::dma::read`) finds them from the stream's position, copies them out, checks them
+/// against the position again, and the decoder takes them. QEMU has no DMA: the position is
+/// read from RAM (an `Acquire` load of the event count, as on the board, then the index where
+/// the board reads NDTR) and written by [`RxDma::deliver`] outside the timed region.
+struct RxDma {
+    ring: flexarm_link::ring::DmaRing<RX_DMA_LEN>,
+    decoder: flexarm_link::Decoder,
+    /// Bytes the simulated DMA has written.
+    written: u32,
+}
+
+/// The firmware's `link::RX_CAPACITY`: the hardware board's DMA buffer.
+const RX_DMA_LEN: usize = 512;
+/// The simulated DMA's buffer and position (the stream's event count and NDTR).
+static RX_DMA_BUFFER: [AtomicU8; RX_DMA_LEN] = [const { AtomicU8::new(0) }; RX_DMA_LEN];
+static RX_DMA_HALVES: AtomicU32 = AtomicU32::new(0);
+static RX_DMA_REMAINING: AtomicU16 = AtomicU16::new(RX_DMA_LEN as u16);
+
+impl RxDma {
+    /// The simulated DMA writes `frame` into the buffer and moves its position on.
+    fn deliver(&mut self, frame: &Frame) {
+        for &b in frame.bytes.iter().take(frame.len) {
+            if let Some(slot) = RX_DMA_BUFFER.get(self.written as usize % RX_DMA_LEN) {
+                slot.store(b, Relaxed);
+            }
+            self.written = self.written.wrapping_add(1);
+        }
+        RX_DMA_HALVES.store(self.written / (RX_DMA_LEN as u32 / 2), Release);
+        RX_DMA_REMAINING.store(
+            (RX_DMA_LEN as u32 - self.written % RX_DMA_LEN as u32) as u16,
+            Relaxed,
+        );
+    }
+}
+
+/// The stream's position as the firmware's `link::dma::position` reads it.
+fn rx_dma_position() -> flexarm_link::ring::Position {
+    let halves = RX_DMA_HALVES.load(Acquire);
+    flexarm_link::ring::Position {
+        halves,
+        remaining: RX_DMA_REMAINING.load(Relaxed),
+    }
+}
+
+/// The frame [`RxDma::deliver`] wrote, read out of the DMA buffer and decoded; the result is
+/// the decoded move's first target (NaN if a byte was lost: the check of the row).
+#[inline(never)]
+fn call_rx_dma_frame(rx: &mut RxDma) -> (f32, u32) {
+    timed(rx, |rx| {
+        let mut out = f32::NAN;
+        loop {
+            let chunk = rx.ring.read::<32>(&RX_DMA_BUFFER, rx_dma_position);
+            if chunk.is_empty() {
+                break;
+            }
+            if chunk.lost > 0 {
+                out = f32::INFINITY;
+            }
+            for &b in chunk.bytes() {
+                if let Some(Ok(r)) = rx.decoder.push_request(b)
+                    && let flexarm_link::Command::Move(flexarm_link::msg::Move::Trapezoid {
+                        target,
+                        ..
+                    }) = r.command
+                    && out.is_nan()
+                {
+                    out = target[0];
+                }
+            }
+        }
+        out
+    })
+}
+
 /// Counts of `f` (a timed call) over `states`, overhead subtracted.
 fn measure<R>(states: &[State], overhead: u32, mut f: impl FnMut(&State) -> (R, u32)) -> Stat {
     let mut s = Stat::new();
@@ -680,6 +759,44 @@ fn main() -> ! {
             / (frames.n.max(1) * RX_FRAME as u32);
         defmt::info!(
             "BENCH {=str} link receive path: {=u32}.{=u32} instructions per byte (frames of {=usize} bytes)",
+            set,
+            per_byte / 10,
+            per_byte % 10,
+            RX_FRAME
+        );
+        // The hardware board's DMA receive path, the same frames (the buffer wraps every
+        // 512 / 26 frames, so some frames are read in two chunks, as on the board).
+        let mut rx = RxDma {
+            ring: flexarm_link::ring::DmaRing::at(rx_dma_position()),
+            decoder: flexarm_link::Decoder::new(),
+            written: flexarm_link::ring::DmaRing::<RX_DMA_LEN>::written(rx_dma_position()),
+        };
+        let mut wrong = 0u32;
+        let mut frames = Stat::new();
+        for s in states.iter() {
+            let frame = rx_frame(s);
+            rx.deliver(&frame);
+            let (x, n) = call_rx_dma_frame(black_box(&mut rx));
+            wrong += u32::from(x != s.q.x);
+            frames.add(n.saturating_sub(overhead));
+        }
+        if wrong > 0 {
+            defmt::error!(
+                "link_rx_dma_frame: {=u32} frames not decoded or bytes lost",
+                wrong
+            );
+            ok = false;
+        }
+        ok &= report(
+            set,
+            "link_rx_dma_frame",
+            &frames,
+            gated(BUDGET_LINK_RX_DMA_FRAME_MEAN),
+        );
+        let per_byte = (frames.sum * 10 + frames.n * RX_FRAME as u32 / 2)
+            / (frames.n.max(1) * RX_FRAME as u32);
+        defmt::info!(
+            "BENCH {=str} link DMA receive path: {=u32}.{=u32} instructions per byte (frames of {=usize} bytes)",
             set,
             per_byte / 10,
             per_byte % 10,
