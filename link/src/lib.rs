@@ -35,4 +35,4 @@ pub use msg::{Command, DeviceMsg, Reply, Request};
 
 /// The protocol version: a host and a firmware talk only when they agree on it (the
 /// handshake refuses otherwise). Bumped whenever a message changes shape.
-pub const VERSION: u16 = 9;
+pub const VERSION: u16 = 10;
