@@ -127,7 +127,7 @@ pub fn refusal(r: Refusal) -> &'static str {
         Refusal::NoRecord => "nothing recorded there",
         Refusal::Unsupported => "this firmware does not implement it",
         Refusal::Armed => {
-            "only while the piezo output is off: `disarm` first (a change of the piezo law, or of what a law beside the paper's rate law is designed from)"
+            "only while disarmed: `disarm` first (a change of the piezo law, or of what a law beside the paper's rate law is designed from; a save or an erase of the board's settings)"
         }
         Refusal::Storage => {
             "the board's settings store failed (a flash error, or a store it cannot read: `flexarm config erase` formats it)"

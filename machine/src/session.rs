@@ -184,8 +184,10 @@ impl Session {
     pub fn values(&self, control: &Control, drive: &Drive<f32>) -> store::Values {
         let mut values = store::Values::none();
         for (slot, info) in values.0.iter_mut().zip(PARAMS) {
-            if store::Values::saved(info.param) {
-                *slot = self.get(info.param, control, drive);
+            if store::Values::saved(info.param)
+                && let Some(v) = self.get(info.param, control, drive)
+            {
+                *slot = v;
             }
         }
         values
@@ -203,20 +205,20 @@ impl Session {
         control: &mut Control,
         drive: &mut Drive<f32>,
     ) -> Result<(), Param> {
-        let mut old = store::Values::none();
+        let mut old = [None; store::COUNT];
         let mut done = [false; store::COUNT];
         let mut order = [0u8; store::COUNT];
         let mut applied = 0;
         for pass in 0..2 {
-            for (i, (v, info)) in values.0.iter().zip(PARAMS).enumerate() {
-                let (Some(v), Some(false)) = (*v, done.get(i).copied()) else {
+            for (i, info) in PARAMS.iter().enumerate() {
+                let (Some(v), Some(false)) = (values.get(i), done.get(i).copied()) else {
                     continue;
                 };
                 let before = self.get(info.param, control, drive);
                 match self.set(info.param, v, control, drive) {
                     Reply::Done => {
                         if let (Some(o), Some(d), Some(slot)) =
-                            (old.0.get_mut(i), done.get_mut(i), order.get_mut(applied))
+                            (old.get_mut(i), done.get_mut(i), order.get_mut(applied))
                         {
                             *o = before;
                             *d = true;
@@ -227,7 +229,7 @@ impl Session {
                     _ if pass == 1 => {
                         for &j in order.get(..applied).unwrap_or(&[]).iter().rev() {
                             let j = usize::from(j);
-                            if let (Some(Some(o)), Some(p)) = (old.0.get(j), PARAMS.get(j)) {
+                            if let (Some(Some(o)), Some(p)) = (old.get(j), PARAMS.get(j)) {
                                 let _ = self.set(p.param, *o, control, drive);
                             }
                         }
@@ -241,9 +243,17 @@ impl Session {
     }
 
     /// A `Set` of `p` to `v`: its range, the rule while moving, the controller's and the
-    /// drive's checks.
+    /// drive's checks. The caller calls it for the link's `Set` (not [`Self::answer`]: the
+    /// piezo law's design, under it, is the idle task's deepest call chain), with the drive
+    /// told it heard the host.
     #[inline(never)]
-    fn set(&mut self, p: Param, v: f32, control: &mut Control, drive: &mut Drive<f32>) -> Reply {
+    pub fn set(
+        &mut self,
+        p: Param,
+        v: f32,
+        control: &mut Control,
+        drive: &mut Drive<f32>,
+    ) -> Reply {
         let id = &self.identity;
         let ctrl = &mut control.ctrl;
         let mode = drive.mode(ctrl);
@@ -342,7 +352,7 @@ impl Session {
 
     /// The answer to `command`, applied to the controller, the drive and the fault recorder
     /// (the caller holds them for the duration: a few microseconds). Moves are
-    /// [`start_move`]'s.
+    /// [`start_move`]'s, a `Set` is [`Self::set`]'s.
     #[inline(never)]
     pub fn answer(
         &mut self,
@@ -441,7 +451,9 @@ impl Session {
                 Some(v) => Reply::Value(v),
                 None => Reply::Refused(Refusal::UnknownParam),
             },
-            Command::Set(p, v) => self.set(p, v, control, drive),
+            // The caller's, [`Self::set`] (a `Set` of the piezo law designs it, the idle
+            // task's deepest call chain, which need not run under this function's frame).
+            Command::Set(..) => Reply::Refused(Refusal::Unsupported),
             // The caller's (outside every lock: a flash write stalls the CPU), through
             // [`Self::values`] and `store::Store`.
             Command::ConfigSave | Command::ConfigErase => Reply::Refused(Refusal::Unsupported),

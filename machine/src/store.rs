@@ -44,16 +44,32 @@ pub const MAX_RECORD: usize = 9 + COUNT * 5 + 4;
 /// The map's work buffer [bytes]: a record and its key, rounded up to a word of 4 bytes.
 pub const BUFFER: usize = (MAX_RECORD + 1).div_ceil(4) * 4;
 
-const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// Bitwise, as the link's frames (`flexarm_link::frame`): no 1 KiB table in flash.
+const CRC: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
 
-/// The values of a save: `Some` for each parameter the record holds, in the wire's order.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Values(pub [Option<f32>; COUNT]);
+/// The values of a save, one per parameter in the wire's order; NaN where the record holds
+/// none (no `Set` accepts NaN). Compared bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct Values(pub [f32; COUNT]);
+
+impl PartialEq for Values {
+    fn eq(&self, other: &Self) -> bool {
+        self.0
+            .iter()
+            .zip(&other.0)
+            .all(|(a, b)| a.to_bits() == b.to_bits())
+    }
+}
 
 impl Values {
     /// No value.
     pub const fn none() -> Self {
-        Self([None; COUNT])
+        Self([f32::NAN; COUNT])
+    }
+
+    /// The value of parameter `i` (its index in the wire's order), if held.
+    pub fn get(&self, i: usize) -> Option<f32> {
+        self.0.get(i).copied().filter(|v| !v.is_nan())
     }
 
     /// Whether `p` is saved: every parameter a board's configuration holds, not the piezo
@@ -114,10 +130,10 @@ pub fn encode(values: &Values, params_hash: u32, out: &mut [u8; MAX_RECORD]) -> 
     put(out, &mut n, &SCHEMA.to_le_bytes());
     put(out, &mut n, &flexarm_link::VERSION.to_le_bytes());
     put(out, &mut n, &params_hash.to_le_bytes());
-    let count = values.0.iter().filter(|v| v.is_some()).count() as u8;
+    let count = (0..COUNT).filter(|&i| values.get(i).is_some()).count() as u8;
     put(out, &mut n, &[count]);
-    for (i, v) in values.0.iter().enumerate() {
-        if let Some(v) = v {
+    for i in 0..COUNT {
+        if let Some(v) = values.get(i) {
             put(out, &mut n, &[i as u8]);
             put(out, &mut n, &v.to_le_bytes());
         }
@@ -169,7 +185,11 @@ pub fn decode(record: &[u8], params_hash: u32) -> Loaded {
         let Some(slot) = values.0.get_mut(usize::from(i)) else {
             return corrupt;
         };
-        *slot = Some(f32::from_le_bytes(v));
+        let v = f32::from_le_bytes(v);
+        if v.is_nan() {
+            return corrupt;
+        }
+        *slot = v;
     }
     Loaded::Values(values)
 }
@@ -178,6 +198,9 @@ pub fn decode(record: &[u8], params_hash: u32) -> Loaded {
 /// end on an erase page's boundary, at least two pages).
 pub struct Store<F: NorFlash> {
     map: MapStorage<u8, F, Cache<Uncached, Uncached, Uncached, u8>>,
+    /// The map's work buffer: here, not on the stack (the firmware keeps the store in a
+    /// static; its idle task's stack is budgeted, `firmware/budgets.txt`).
+    buf: [u8; BUFFER],
 }
 
 impl<F: NorFlash> Store<F> {
@@ -187,13 +210,13 @@ impl<F: NorFlash> Store<F> {
         let config = MapConfig::try_new(range).ok()?;
         Some(Self {
             map: MapStorage::new(flash, config, Cache::new_uncached()),
+            buf: [0; BUFFER],
         })
     }
 
     /// The last complete record, read for a build of configuration hash `params_hash`.
     pub fn load(&mut self, params_hash: u32) -> Loaded {
-        let mut buf = [0u8; BUFFER];
-        match block_on(self.map.fetch_item::<&[u8]>(&mut buf, &KEY)) {
+        match block_on(self.map.fetch_item::<&[u8]>(&mut self.buf, &KEY)) {
             Ok(None) => Loaded::Nothing,
             Ok(Some(record)) => decode(record, params_hash),
             Err(_) => Loaded::Refused(SettingsRefusal::Unreadable),
@@ -220,9 +243,11 @@ impl<F: NorFlash> Store<F> {
         }
     }
 
+    /// Stores `record`.
     fn put(&mut self, record: &[u8]) -> Result<(), StoreError> {
-        let mut buf = [0u8; BUFFER];
-        block_on(self.map.store_item(&mut buf, &KEY, &record)).map_err(error)
+        // Generic over the one value type, not through the crate's `dyn Value` (no indirect
+        // call: scripts/fw-stack-bound follows every call of the firmware's idle task).
+        block_on(self.map.store_item_generic(&mut self.buf, &KEY, &record)).map_err(error)
     }
 
     /// The flash driver back (the host's tests inspect it).

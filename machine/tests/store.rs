@@ -15,7 +15,7 @@ use flexarm_machine::store::{
     BUFFER, COUNT, FlashError, Loaded, MAX_RECORD, SCHEMA, Store, Values, decode, encode,
 };
 
-const PAGE: usize = 512;
+const PAGE: usize = 256;
 const PAGES: usize = 2;
 const HASH: u32 = 0x5b0e_89e3;
 
@@ -140,7 +140,7 @@ fn values(seed: u32) -> Values {
     for (i, slot) in v.0.iter_mut().enumerate() {
         let p = flexarm_link::params::PARAMS[i].param;
         if Values::saved(p) {
-            *slot = Some(seed as f32 + i as f32 * 0.25);
+            *slot = seed as f32 + i as f32 * 0.25;
         }
     }
     v
@@ -182,7 +182,7 @@ fn the_record_round_trips_and_names_what_it_refuses() {
     );
     assert_eq!(decode(&[], HASH), Loaded::Erased);
     assert_eq!(COUNT, flexarm_link::params::PARAMS.len());
-    assert_eq!(values(1).0[Param::VaBias as usize], None);
+    assert_eq!(values(1).get(Param::VaBias as usize), None);
 }
 
 /// Saves, an erase and saves again, read back each time, across page turns.
