@@ -325,6 +325,7 @@ mod app {
         let params_hash = config::CONFIG_HASH;
         #[cfg_attr(not(feature = "inject-reset"), allow(unused_mut))]
         let mut control = Control::new(ctrl);
+        #[cfg_attr(not(feature = "inject-reset"), allow(unused_mut))]
         let mut session = Session::new(
             cfg.tuning(),
             Identity {
@@ -336,8 +337,9 @@ mod app {
                 test_commands: cfg!(feature = "link-session"),
             },
         );
-        // The settings saved on the board, through a `Set`'s checks, before anything arms.
-        let store = crate::settings::boot(params_hash, &mut session, &mut control, &mut drive);
+        // The store of the settings saved on the board: read and applied by the idle task
+        // (`settings::boot`), value by value between the loops' periods.
+        let store = crate::settings::take();
         // The QEMU board's simulated arm: its encoders read the plant's own angles, the arm's
         // frame, declared (issue 33; status shows it declared, not homed).
         #[cfg(feature = "qemu")]
@@ -429,6 +431,12 @@ mod app {
     fn idle(mut cx: idle::Context) -> ! {
         use crate::link;
         crate::stack::paint();
+        crate::settings::boot(
+            cx.local.store,
+            cx.local.session,
+            &mut cx.shared.control,
+            &mut cx.shared.drive,
+        );
         loop {
             while let Some(r) = cx.local.consumer.dequeue() {
                 if !matches!(r, Record::Sample { print: false, .. }) {

@@ -23,19 +23,31 @@ use flexarm_machine::{Control, Session};
 /// The board's store.
 pub type BoardStore = Store<BoardFlash>;
 
-/// The store at boot: what it holds, applied to the controller and the drive through a `Set`'s
-/// checks; the session's handshake says what happened.
-pub fn boot(
-    params_hash: u32,
-    session: &mut Session,
-    control: &mut Control,
-    drive: &mut Drive<f32>,
-) -> Option<BoardStore> {
-    let Some(mut store) = BoardFlash::take().and_then(|f| Store::new(f, RANGE)) else {
+/// The store over this board's memory (`init`'s: no flash is read yet).
+pub fn take() -> Option<BoardStore> {
+    let store = BoardFlash::take().and_then(|f| Store::new(f, RANGE));
+    if store.is_none() {
         defmt::error!("settings: the store's pages are not on the flash's page boundaries");
-        return None;
+    }
+    store
+}
+
+/// What the store holds, applied to the controller and the drive through a `Set`'s checks,
+/// one value under one short lock at a time (`Session::apply`): the idle task's first act,
+/// while the loops run disarmed and before any request is served. The handshake and the log
+/// say what happened.
+#[inline(never)]
+pub fn boot(
+    store: &mut Option<BoardStore>,
+    session: &mut Session,
+    control: &mut impl rtic::Mutex<T = Control>,
+    drive: &mut impl rtic::Mutex<T = Drive<f32>>,
+) {
+    let loaded = match store {
+        Some(s) => s.load(crate::config::CONFIG_HASH),
+        None => Loaded::Refused(SettingsRefusal::Unreadable),
     };
-    let settings = match store.load(params_hash) {
+    let settings = match loaded {
         Loaded::Nothing | Loaded::Erased => Settings::Defaults,
         Loaded::Refused(r) => Settings::Refused(r),
         Loaded::Values(v) => match session.apply(&v, control, drive) {
@@ -51,7 +63,6 @@ pub fn boot(
         _ => defmt::info!("settings: nothing saved; the build's defaults run"),
     }
     session.set_settings(settings);
-    Some(store)
 }
 
 /// `ConfigSave` (`save`) or `ConfigErase`: disarmed only (the drive disarmed or faulted, the

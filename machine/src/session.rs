@@ -197,13 +197,15 @@ impl Session {
     /// controller's rules, the drive's), in the wire's order, those refused tried once more
     /// after the others (a rule between two parameters). When one is still refused, every
     /// value applied is set back, last first, and the refused parameter is returned: the
-    /// build's defaults run.
+    /// build's defaults run. Each value is read and written under its own short lock, as a
+    /// host's `Get` and `Set` are (all of them under one lock held the loops off for longer
+    /// than a period: a latched overrun on the QEMU board).
     #[inline(never)]
     pub fn apply(
         &mut self,
         values: &store::Values,
-        control: &mut Control,
-        drive: &mut Drive<f32>,
+        control: &mut impl Mutex<T = Control>,
+        drive: &mut impl Mutex<T = Drive<f32>>,
     ) -> Result<(), Param> {
         let mut old = [None; store::COUNT];
         let mut done = [false; store::COUNT];
@@ -214,8 +216,10 @@ impl Session {
                 let (Some(v), Some(false)) = (values.get(i), done.get(i).copied()) else {
                     continue;
                 };
-                let before = self.get(info.param, control, drive);
-                match self.set(info.param, v, control, drive) {
+                let (before, reply) = control.lock(|c| {
+                    drive.lock(|d| (self.get(info.param, c, d), self.set(info.param, v, c, d)))
+                });
+                match reply {
                     Reply::Done => {
                         if let (Some(o), Some(d), Some(slot)) =
                             (old.get_mut(i), done.get_mut(i), order.get_mut(applied))
@@ -230,7 +234,11 @@ impl Session {
                         for &j in order.get(..applied).unwrap_or(&[]).iter().rev() {
                             let j = usize::from(j);
                             if let (Some(Some(o)), Some(p)) = (old.get(j), PARAMS.get(j)) {
-                                let _ = self.set(p.param, *o, control, drive);
+                                control.lock(|c| {
+                                    drive.lock(|d| {
+                                        let _ = self.set(p.param, *o, c, d);
+                                    })
+                                });
                             }
                         }
                         return Err(info.param);
