@@ -80,6 +80,35 @@ impl std::fmt::Display for ConsoleError {
 
 impl std::error::Error for ConsoleError {}
 
+/// What the handshake says of the board's saved settings, in words.
+pub fn settings(s: flexarm_link::msg::Settings) -> String {
+    use flexarm_link::msg::{Settings, SettingsRefusal};
+    match s {
+        Settings::Defaults => "the build's defaults (nothing saved)".into(),
+        Settings::Loaded => "the settings saved on the board (loaded at boot)".into(),
+        Settings::Saved => "the settings saved on the board (saved since boot)".into(),
+        Settings::Erased => {
+            "erased since boot: the values running now stay until the board resets, then the build's defaults".into()
+        }
+        Settings::Refused(r) => format!(
+            "the build's defaults: the saved settings were refused at boot, {}",
+            match r {
+                SettingsRefusal::Unreadable =>
+                    "the store cannot be read (`flexarm config erase` formats it)".into(),
+                SettingsRefusal::Corrupt => "their record fails its CRC".into(),
+                SettingsRefusal::Version =>
+                    "saved by a firmware of another record layout or protocol version".into(),
+                SettingsRefusal::Hash =>
+                    "saved by a firmware of another configuration (parameters hash)".into(),
+                SettingsRefusal::Value(p) => format!(
+                    "the board's checks refused the saved {} (`flexarm config save` or `config erase` replaces them)",
+                    p.info().name
+                ),
+            }
+        ),
+    }
+}
+
 /// A refusal in words.
 pub fn refusal(r: Refusal) -> &'static str {
     match r {
@@ -98,7 +127,10 @@ pub fn refusal(r: Refusal) -> &'static str {
         Refusal::NoRecord => "nothing recorded there",
         Refusal::Unsupported => "this firmware does not implement it",
         Refusal::Armed => {
-            "only while the piezo output is off: `disarm` first (a change of the piezo law, or of what a law beside the paper's rate law is designed from)"
+            "only while disarmed: `disarm` first (a change of the piezo law, or of what a law beside the paper's rate law is designed from; a save or an erase of the board's settings)"
+        }
+        Refusal::Storage => {
+            "the board's settings store failed (a flash error, or a store it cannot read: `flexarm config erase` formats it)"
         }
         Refusal::Unidentified => {
             "the law's design rule needs the film's static gain measured: run `flexarm bringup` (its film step writes it) or `set film_static` first"
@@ -185,6 +217,7 @@ impl Client {
                 params_hash: 0,
                 motor_hz: 0,
                 piezo_hz: 0,
+                settings: flexarm_link::msg::Settings::Defaults,
             },
             telemetry: Vec::new(),
             buffer: [0; 512],

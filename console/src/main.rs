@@ -70,6 +70,10 @@ enum ConfigAction {
         /// A dump.
         file: PathBuf,
     },
+    /// Saves the board's running values in its flash (disarmed only): it boots with them.
+    Save,
+    /// Marks the settings saved on the board erased: the next boot runs the build's defaults.
+    Erase,
 }
 
 #[derive(Subcommand)]
@@ -503,6 +507,10 @@ fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), Co
             println!(
                 "{} on {:?} (protocol {}, parameters {:08x}); motor loop {} Hz, piezo loop {} Hz",
                 h.build, h.board, h.version, h.params_hash, h.motor_hz, h.piezo_hz
+            );
+            println!(
+                "settings: {}",
+                flexarm_console::client::settings(h.settings)
             );
             print_status(&c.status()?);
         }
@@ -977,6 +985,16 @@ fn config(
                 differ.len(),
                 dump.len(),
                 file.display()
+            );
+        }
+        ConfigAction::Save => {
+            c.done("config save", Command::ConfigSave)?;
+            println!("config save: done; the board boots with its values now running");
+        }
+        ConfigAction::Erase => {
+            c.done("config erase", Command::ConfigErase)?;
+            println!(
+                "config erase: done; the values running now stay until the board resets, then the build's defaults"
             );
         }
         ConfigAction::Restore { file } => {

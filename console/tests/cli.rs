@@ -63,6 +63,7 @@ fn ours(c: &Command) -> Option<Reply> {
             params_hash: 0x1234_5678,
             motor_hz: 100,
             piezo_hz: 1000,
+            settings: flexarm_link::msg::Settings::Defaults,
         }),
         Command::Hello { .. } => Reply::Refused(Refusal::Version),
         Command::Status => Reply::Status(Status {

@@ -56,6 +56,7 @@ impl Stand {
                 params_hash: 0,
                 motor_hz: 1000,
                 piezo_hz: 10_000,
+                settings: flexarm_link::msg::Settings::Defaults,
             }),
             Command::Status => Reply::Status(status(self.mode, None)),
             Command::Stop => {

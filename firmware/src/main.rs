@@ -46,6 +46,7 @@ mod generated {
 mod link;
 #[allow(unsafe_code)]
 mod retained;
+mod settings;
 mod stats;
 mod telemetry;
 
@@ -136,6 +137,7 @@ mod app {
         dma2: stm32f4::stm32f405::DMA2,
         serial: crate::link::Serial,
         session: Session,
+        store: Option<crate::settings::BoardStore>,
         snapshot: Snapshot,
         piezo_ticks: u32,
         motor: MotorLoop,
@@ -330,42 +332,7 @@ mod app {
                 drive.monitor().heat.x
             );
         }
-        // The QEMU board's simulated arm: its encoders read the plant's own angles, the arm's
-        // frame, declared (issue 33; status shows it declared, not homed).
-        #[cfg(feature = "qemu")]
-        let _ = drive.declare_zero(&mut ctrl);
-        if config::BOOT_MOVE && ctrl.fault().is_none() {
-            let half_pi = core::f32::consts::FRAC_PI_2;
-            let boot = MoveRequest::Trapezoid {
-                target: Vector2::new(half_pi, half_pi),
-                move_time: 2.0,
-                ramp_time: 0.5,
-            };
-            let started = drive
-                .arm(&mut ctrl, config::START_TICK)
-                .and_then(|()| drive.start(&mut ctrl, config::START_TICK, &boot));
-            if started.is_err() {
-                defmt::error!("the boot move was refused by the drive's limits");
-            }
-        }
-        let (producer, consumer) = cx.local.queue.split();
-        #[cfg(feature = "qemu")]
-        let (rx_producer, rx_consumer) = cx.local.rx_queue.split();
-        // The hardware board receives by DMA: the stream runs before the USART requests it.
-        #[cfg(feature = "hw")]
-        crate::link::dma::start(&dp.DMA2, &dp.RCC);
-        let serial = crate::link::Serial::new(dp.USART1, &dp.RCC);
         let params_hash = config::CONFIG_HASH;
-        defmt::info!(
-            "flexarm firmware: piezo loop {=u32} Hz, motor loop {=u32} Hz, supervisor {=u32} Hz; the arm model's modes {=f32} and {=f32} Hz, parameters {=u32:08x}",
-            PIEZO_HZ,
-            MOTOR_HZ,
-            SUPERVISOR_HZ,
-            cfg.arm.modes.omega.x / core::f32::consts::TAU,
-            cfg.arm.modes.omega.y / core::f32::consts::TAU,
-            params_hash
-        );
-        let snapshot = session::snapshot(&ctrl, &drive);
         #[cfg_attr(not(feature = "inject-reset"), allow(unused_mut))]
         let mut control = Control::new(ctrl);
         #[cfg_attr(not(feature = "inject-reset"), allow(unused_mut))]
@@ -380,6 +347,44 @@ mod app {
                 test_commands: cfg!(feature = "link-session"),
             },
         );
+        // The store of the settings saved on the board: read and applied by the idle task
+        // (`settings::boot`), value by value between the loops' periods.
+        let store = crate::settings::take();
+        // The QEMU board's simulated arm: its encoders read the plant's own angles, the arm's
+        // frame, declared (issue 33; status shows it declared, not homed).
+        #[cfg(feature = "qemu")]
+        let _ = drive.declare_zero(&mut control.ctrl);
+        if config::BOOT_MOVE && control.ctrl.fault().is_none() {
+            let half_pi = core::f32::consts::FRAC_PI_2;
+            let boot = MoveRequest::Trapezoid {
+                target: Vector2::new(half_pi, half_pi),
+                move_time: 2.0,
+                ramp_time: 0.5,
+            };
+            let started = drive
+                .arm(&mut control.ctrl, config::START_TICK)
+                .and_then(|()| drive.start(&mut control.ctrl, config::START_TICK, &boot));
+            if started.is_err() {
+                defmt::error!("the boot move was refused by the drive's limits");
+            }
+        }
+        let (producer, consumer) = cx.local.queue.split();
+        #[cfg(feature = "qemu")]
+        let (rx_producer, rx_consumer) = cx.local.rx_queue.split();
+        // The hardware board receives by DMA: the stream runs before the USART requests it.
+        #[cfg(feature = "hw")]
+        crate::link::dma::start(&dp.DMA2, &dp.RCC);
+        let serial = crate::link::Serial::new(dp.USART1, &dp.RCC);
+        defmt::info!(
+            "flexarm firmware: piezo loop {=u32} Hz, motor loop {=u32} Hz, supervisor {=u32} Hz; the arm model's modes {=f32} and {=f32} Hz, parameters {=u32:08x}",
+            PIEZO_HZ,
+            MOTOR_HZ,
+            SUPERVISOR_HZ,
+            cfg.arm.modes.omega.x / core::f32::consts::TAU,
+            cfg.arm.modes.omega.y / core::f32::consts::TAU,
+            params_hash
+        );
+        let snapshot = session::snapshot(&control.ctrl, &drive);
         // The reset run's second boot: the recorder read over the link's reply, then the
         // verdict (the first boot runs the move, panics at 1 s and resets).
         #[cfg(feature = "inject-reset")]
@@ -418,6 +423,7 @@ mod app {
                 serial,
                 snapshot,
                 session,
+                store,
                 piezo_ticks: 0,
                 motor: MotorLoop::new(&cfg, config::START_TICK),
                 heat_store,
@@ -442,10 +448,16 @@ mod app {
 
     /// Telemetry and the command link: prints queued records and streams the subscribed ones;
     /// answers the link's requests; at the end of a QEMU run, checks the bounds and exits.
-    #[idle(local = [consumer, #[cfg(feature = "qemu")] rx_consumer, #[cfg(feature = "hw")] rx_ring, serial, session, last_tick: u64 = 0, overflows_seen: u32 = 0, stops_seen: u32 = 0, snapshot], shared = [control, drive, recorder, board])]
+    #[idle(local = [consumer, #[cfg(feature = "qemu")] rx_consumer, #[cfg(feature = "hw")] rx_ring, serial, session, store, last_tick: u64 = 0, overflows_seen: u32 = 0, stops_seen: u32 = 0, snapshot], shared = [control, drive, recorder, board])]
     fn idle(mut cx: idle::Context) -> ! {
         use crate::link;
         crate::stack::paint();
+        crate::settings::boot(
+            cx.local.store,
+            cx.local.session,
+            &mut cx.shared.control,
+            &mut cx.shared.drive,
+        );
         loop {
             while let Some(r) = cx.local.consumer.dequeue() {
                 if !matches!(r, Record::Sample { print: false, .. }) {
@@ -594,6 +606,23 @@ mod app {
                 &mut cx.shared.drive,
                 cx.local.snapshot,
             ),
+            // Not through `answer`: a `Set` of the piezo law designs it (the idle task's deepest
+            // call chain), and `answer`'s frame need not be under it.
+            flexarm_link::Command::Set(p, v) => (&mut cx.shared.control, &mut cx.shared.drive)
+                .lock(|c, d| {
+                    d.heard(d.next_tick());
+                    session.set(p, v, c, d)
+                }),
+            flexarm_link::Command::ConfigSave | flexarm_link::Command::ConfigErase => {
+                let save = request.command == flexarm_link::Command::ConfigSave;
+                crate::settings::serve(
+                    save,
+                    session,
+                    &mut cx.shared.control,
+                    &mut cx.shared.drive,
+                    cx.local.store,
+                )
+            }
             command => (
                 &mut cx.shared.control,
                 &mut cx.shared.drive,

@@ -206,6 +206,10 @@ impl<B: Board> Rig<B> {
                 &mut Exclusive(&mut self.drive),
                 &mut self.snapshot,
             ),
+            Command::Set(p, v) => {
+                self.drive.heard(self.drive.next_tick());
+                self.session.set(p, v, &mut self.control, &mut self.drive)
+            }
             command => self.session.answer(
                 command,
                 &mut self.control,

@@ -87,6 +87,15 @@ pub enum Command {
         /// θ1, θ2 of the pose now [rad].
         theta: [f32; 2],
     },
+    /// Store the running values of every parameter a board's configuration holds (all but
+    /// `va_bias`) in the board's non-volatile store, with this build's protocol version and
+    /// configuration hash (issue 36); the board boots with them. Disarmed only (the hardware
+    /// board's flash stalls the CPU while it erases): refused as [`Refusal::Armed`] otherwise.
+    ConfigSave,
+    /// Mark the board's saved settings erased (a record that says so, written as a save is):
+    /// the values running now stay until the next boot, which runs the build's defaults.
+    /// Disarmed only.
+    ConfigErase,
 }
 
 /// A move, in the core's joint frames.
@@ -358,6 +367,9 @@ pub enum Refusal {
     Armed,
     /// The piezo law's design rule needs the film's static gain measured first.
     Unidentified,
+    /// The board's settings store failed (a flash error, or a store it cannot read: a
+    /// `ConfigErase` formats it).
+    Storage,
 }
 
 /// The handshake's answer.
@@ -376,6 +388,40 @@ pub struct Hello {
     pub motor_hz: u32,
     /// Piezo loop rate [Hz].
     pub piezo_hz: u32,
+    /// Whether the board runs settings saved on it, and why not.
+    pub settings: Settings,
+}
+
+/// The board's saved settings (`ConfigSave`), as this session found them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Settings {
+    /// Nothing saved: the build's defaults run.
+    Defaults,
+    /// The saved settings were loaded at boot and run.
+    Loaded,
+    /// The saved settings were refused at boot, for this reason: the build's defaults run.
+    Refused(SettingsRefusal),
+    /// Saved since boot (`ConfigSave`): the running values are the saved ones.
+    Saved,
+    /// Erased since boot (`ConfigErase`): the running values stay until the next boot, which
+    /// runs the build's defaults.
+    Erased,
+}
+
+/// Why saved settings were refused at boot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SettingsRefusal {
+    /// The store could not be read (a flash error, or contents that are no store: a
+    /// `ConfigErase` formats it).
+    Unreadable,
+    /// The record fails its CRC or does not parse.
+    Corrupt,
+    /// Saved by a build of another record layout or protocol version.
+    Version,
+    /// Saved by a build of another configuration (its hash differs from this build's).
+    Hash,
+    /// A value was refused by the board's checks (those of a `Set`).
+    Value(Param),
 }
 
 /// Which board.

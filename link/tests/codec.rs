@@ -76,6 +76,8 @@ fn command() -> impl Strategy<Value = Command> {
         any::<bool>().prop_map(Command::TestAmplifierFault),
         Just(Command::Home),
         (-4.0f32..4.0, -4.0f32..4.0).prop_map(|(a, b)| Command::DeclareHome { theta: [a, b] }),
+        Just(Command::ConfigSave),
+        Just(Command::ConfigErase),
     ]
 }
 
@@ -144,6 +146,7 @@ fn device() -> impl Strategy<Value = DeviceMsg> {
             params_hash: h,
             motor_hz: 100,
             piezo_hz: 1000,
+            settings: Settings::Refused(SettingsRefusal::Value(Param::Kc)),
         })
     });
     let faults = (
@@ -288,6 +291,7 @@ fn the_largest_of_every_message_fits_a_frame() {
                 params_hash: u32::MAX,
                 motor_hz: u32::MAX,
                 piezo_hz: u32::MAX,
+                settings: Settings::Refused(SettingsRefusal::Value(Param::PiezoLaw)),
             }),
         },
         DeviceMsg::Reply {

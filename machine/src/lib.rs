@@ -12,6 +12,7 @@
 //! - [`telemetry`]: the motor loop's record and the stream's channels;
 //! - [`session`]: the command link's session and its conversions between the link's
 //!   messages and the core's types;
+//! - [`store`]: the settings saved on the board (issue 36), over a NOR flash;
 //! - [`simulated`]: the QEMU board's simulated arm, which the host's rig runs too.
 //!
 //! Units SI and frames as in `flexarm_core`; ticks in motor periods.
@@ -29,6 +30,7 @@ pub mod config;
 pub mod period;
 pub mod session;
 pub mod simulated;
+pub mod store;
 pub mod telemetry;
 
 pub use board::Board;

@@ -20,12 +20,14 @@ use flexarm_core::observer::Measurement;
 use flexarm_core::tuning::{Tunable, TuneError, Tuning};
 use flexarm_link::msg::{
     Board, Channels, Command, FaultPage, Hello, HomeState, Load, MAX_CHANNELS, Mode, Move, Param,
-    RecordedSample, Refusal, Reply, SAMPLES_PER_PAGE, Status, Telemetry,
+    RecordedSample, Refusal, Reply, SAMPLES_PER_PAGE, Settings, Status, Telemetry,
 };
+use flexarm_link::params::PARAMS;
 use flexarm_link::{FrameError, Request, VERSION};
 use rtic_core::Mutex;
 
 use crate::period::{Control, FaultRecorder};
+use crate::store;
 use crate::telemetry::{self, Record};
 
 /// The line's rate [baud] (8N1): the hardware board's USART. A stream must fit in 80 % of it.
@@ -89,6 +91,8 @@ pub struct Session {
     /// again (a host's retry after a lost reply) gets this answer, the request not applied a
     /// second time. A handshake forgets it (a new host counts its ids from the start).
     applied: Option<(u16, Answer)>,
+    /// The board's saved settings as this session found and changed them (the handshake's).
+    settings: Settings,
 }
 
 /// The answer to a request that acts (the only kinds it has), kept for a repeat.
@@ -166,6 +170,162 @@ impl Session {
             dropped: 0,
             malformed: 0,
             applied: None,
+            settings: Settings::Defaults,
+        }
+    }
+
+    /// What the handshake says of the board's saved settings.
+    pub fn set_settings(&mut self, settings: Settings) {
+        self.settings = settings;
+    }
+
+    /// The running value of every parameter a save keeps ([`store::Values::saved`]).
+    #[inline(never)]
+    pub fn values(&self, control: &Control, drive: &Drive<f32>) -> store::Values {
+        let mut values = store::Values::none();
+        for (slot, info) in values.0.iter_mut().zip(PARAMS) {
+            if store::Values::saved(info.param)
+                && let Some(v) = self.get(info.param, control, drive)
+            {
+                *slot = v;
+            }
+        }
+        values
+    }
+
+    /// Applies saved `values` at boot, each through a `Set`'s checks (its range, the
+    /// controller's rules, the drive's), in the wire's order, those refused tried once more
+    /// after the others (a rule between two parameters). When one is still refused, every
+    /// value applied is set back, last first, and the refused parameter is returned: the
+    /// build's defaults run. Each value is read and written under its own short lock, as a
+    /// host's `Get` and `Set` are (all of them under one lock held the loops off for longer
+    /// than a period: a latched overrun on the QEMU board).
+    #[inline(never)]
+    pub fn apply(
+        &mut self,
+        values: &store::Values,
+        control: &mut impl Mutex<T = Control>,
+        drive: &mut impl Mutex<T = Drive<f32>>,
+    ) -> Result<(), Param> {
+        let mut old = [None; store::COUNT];
+        let mut done = [false; store::COUNT];
+        let mut order = [0u8; store::COUNT];
+        let mut applied = 0;
+        for pass in 0..2 {
+            for (i, info) in PARAMS.iter().enumerate() {
+                let (Some(v), Some(false)) = (values.get(i), done.get(i).copied()) else {
+                    continue;
+                };
+                let (before, reply) = control.lock(|c| {
+                    drive.lock(|d| (self.get(info.param, c, d), self.set(info.param, v, c, d)))
+                });
+                match reply {
+                    Reply::Done => {
+                        if let (Some(o), Some(d), Some(slot)) =
+                            (old.get_mut(i), done.get_mut(i), order.get_mut(applied))
+                        {
+                            *o = before;
+                            *d = true;
+                            *slot = i as u8;
+                            applied += 1;
+                        }
+                    }
+                    _ if pass == 1 => {
+                        for &j in order.get(..applied).unwrap_or(&[]).iter().rev() {
+                            let j = usize::from(j);
+                            if let (Some(Some(o)), Some(p)) = (old.get(j), PARAMS.get(j)) {
+                                control.lock(|c| {
+                                    drive.lock(|d| {
+                                        let _ = self.set(p.param, *o, c, d);
+                                    })
+                                });
+                            }
+                        }
+                        return Err(info.param);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A `Set` of `p` to `v`: its range, the rule while moving, the controller's and the
+    /// drive's checks. The caller calls it for the link's `Set` (not [`Self::answer`]: the
+    /// piezo law's design, under it, is the idle task's deepest call chain), with the drive
+    /// told it heard the host.
+    #[inline(never)]
+    pub fn set(
+        &mut self,
+        p: Param,
+        v: f32,
+        control: &mut Control,
+        drive: &mut Drive<f32>,
+    ) -> Reply {
+        let id = &self.identity;
+        let ctrl = &mut control.ctrl;
+        let mode = drive.mode(ctrl);
+        let ((min, max), while_moving) = rule(p);
+        if !while_moving
+            && matches!(
+                mode,
+                drive::Mode::Moving | drive::Mode::Stopping | drive::Mode::Homing
+            )
+        {
+            return Reply::Refused(Refusal::Moving);
+        }
+        // Written so that NaN is refused too.
+        if !(min..=max).contains(&v) {
+            return Reply::Refused(Refusal::OutOfRange);
+        }
+        match home(p) {
+            Home::Tuning(t) => match self.tuning.set(ctrl, mode, t, v) {
+                Ok(()) => Reply::Done,
+                Err(e) => Reply::Refused(tune_refusal(e)),
+            },
+            // 0 turns the watchdog off; any other value is at least
+            // MIN_LINK_TIMEOUT_PERIODS motor periods (a shorter one rounded to 0 and
+            // turned it off unasked, issue 36).
+            Home::LinkTimeout => {
+                let periods = v * id.motor_hz as f32;
+                if v != 0.0 && periods < MIN_LINK_TIMEOUT_PERIODS as f32 {
+                    return Reply::Refused(Refusal::OutOfRange);
+                }
+                drive.link_timeout = periods as u32;
+                Reply::Done
+            }
+            Home::StallSpeedError => {
+                drive.motion.stall_speed_error = v;
+                Reply::Done
+            }
+            // Within the amplifier's window, while the drive holds.
+            Home::Bias => match mode {
+                drive::Mode::Armed => {
+                    let l = &ctrl.motor.limits;
+                    if (l.v_a_min..=l.v_a_max).contains(&v) {
+                        control.piezo_bias = v;
+                        Reply::Done
+                    } else {
+                        Reply::Refused(Refusal::OutOfRange)
+                    }
+                }
+                drive::Mode::Fault => Reply::Refused(Refusal::Faulted),
+                _ => Reply::Refused(Refusal::NotArmed),
+            },
+        }
+    }
+
+    /// The running value of `p` (a `Get`'s).
+    fn get(&self, p: Param, control: &Control, drive: &Drive<f32>) -> Option<f32> {
+        match home(p) {
+            // The rated limit, not the one the motors' heat derates it to now: what a `Set`
+            // sets and a configuration's dump keeps (issue 33: after a power-on the motors
+            // are assumed hot, and a dump read the derating of the moment).
+            Home::Tuning(Tunable::TauMax(i)) => drive.rated_torque().get(i).copied(),
+            Home::Tuning(t) => self.tuning.get(&control.ctrl, t).ok(),
+            Home::LinkTimeout => Some(drive.link_timeout as f32 / self.identity.motor_hz as f32),
+            Home::StallSpeedError => Some(drive.motion.stall_speed_error),
+            Home::Bias => Some(control.piezo_bias),
         }
     }
 
@@ -205,7 +365,7 @@ impl Session {
 
     /// The answer to `command`, applied to the controller, the drive and the fault recorder
     /// (the caller holds them for the duration: a few microseconds). Moves are
-    /// [`start_move`]'s.
+    /// [`start_move`]'s, a `Set` is [`Self::set`]'s.
     #[inline(never)]
     pub fn answer(
         &mut self,
@@ -225,7 +385,7 @@ impl Session {
         drive.heard(now);
         match command {
             Command::Hello { version } if version != VERSION => Reply::Refused(Refusal::Version),
-            Command::Hello { .. } => Reply::Hello(hello(id)),
+            Command::Hello { .. } => Reply::Hello(hello(id, self.settings)),
             Command::Status => Reply::Status(Status {
                 mode: mode(drive.mode(ctrl)),
                 fault: ctrl.fault().map(|f| f as u8),
@@ -300,73 +460,16 @@ impl Session {
                 control.stream_every = 0;
                 Reply::Done
             }
-            Command::Get(p) => match home(p) {
-                // The rated limit, not the one the motors' heat derates it to now: what a `Set`
-                // sets and a configuration's dump keeps (issue 33: after a power-on the motors
-                // are assumed hot, and a dump read the derating of the moment).
-                Home::Tuning(Tunable::TauMax(i)) => match drive.rated_torque().get(i) {
-                    Some(&v) => Reply::Value(v),
-                    None => Reply::Refused(tune_refusal(TuneError::Unknown)),
-                },
-                Home::Tuning(t) => match self.tuning.get(ctrl, t) {
-                    Ok(v) => Reply::Value(v),
-                    Err(e) => Reply::Refused(tune_refusal(e)),
-                },
-                Home::LinkTimeout => Reply::Value(drive.link_timeout as f32 / id.motor_hz as f32),
-                Home::StallSpeedError => Reply::Value(drive.motion.stall_speed_error),
-                Home::Bias => Reply::Value(control.piezo_bias),
+            Command::Get(p) => match self.get(p, control, drive) {
+                Some(v) => Reply::Value(v),
+                None => Reply::Refused(Refusal::UnknownParam),
             },
-            Command::Set(p, v) => {
-                let mode = drive.mode(ctrl);
-                let ((min, max), while_moving) = rule(p);
-                if !while_moving
-                    && matches!(
-                        mode,
-                        drive::Mode::Moving | drive::Mode::Stopping | drive::Mode::Homing
-                    )
-                {
-                    return Reply::Refused(Refusal::Moving);
-                }
-                // Written so that NaN is refused too.
-                if !(min..=max).contains(&v) {
-                    return Reply::Refused(Refusal::OutOfRange);
-                }
-                match home(p) {
-                    Home::Tuning(t) => match self.tuning.set(ctrl, mode, t, v) {
-                        Ok(()) => Reply::Done,
-                        Err(e) => Reply::Refused(tune_refusal(e)),
-                    },
-                    // 0 turns the watchdog off; any other value is at least
-                    // MIN_LINK_TIMEOUT_PERIODS motor periods (a shorter one rounded to 0 and
-                    // turned it off unasked, issue 36).
-                    Home::LinkTimeout => {
-                        let periods = v * id.motor_hz as f32;
-                        if v != 0.0 && periods < MIN_LINK_TIMEOUT_PERIODS as f32 {
-                            return Reply::Refused(Refusal::OutOfRange);
-                        }
-                        drive.link_timeout = periods as u32;
-                        Reply::Done
-                    }
-                    Home::StallSpeedError => {
-                        drive.motion.stall_speed_error = v;
-                        Reply::Done
-                    }
-                    // Within the amplifier's window, while the drive holds.
-                    Home::Bias => match mode {
-                        drive::Mode::Armed => {
-                            let l = &ctrl.motor.limits;
-                            if (l.v_a_min..=l.v_a_max).contains(&v) {
-                                control.piezo_bias = v;
-                                Reply::Done
-                            } else {
-                                Reply::Refused(Refusal::OutOfRange)
-                            }
-                        }
-                        drive::Mode::Fault => Reply::Refused(Refusal::Faulted),
-                        _ => Reply::Refused(Refusal::NotArmed),
-                    },
-                }
-            }
+            // The caller's, [`Self::set`] (a `Set` of the piezo law designs it, the idle
+            // task's deepest call chain, which need not run under this function's frame).
+            Command::Set(..) => Reply::Refused(Refusal::Unsupported),
+            // The caller's (outside every lock: a flash write stalls the CPU), through
+            // [`Self::values`] and `store::Store`.
+            Command::ConfigSave | Command::ConfigErase => Reply::Refused(Refusal::Unsupported),
             Command::TestAmplifierFault(_) => Reply::Refused(Refusal::Unsupported),
         }
     }
@@ -597,7 +700,7 @@ fn tune_refusal(e: TuneError) -> Refusal {
 }
 
 #[inline(never)]
-fn hello(id: &Identity) -> Hello {
+fn hello(id: &Identity, settings: Settings) -> Hello {
     Hello {
         version: VERSION,
         board: id.board,
@@ -605,5 +708,6 @@ fn hello(id: &Identity) -> Hello {
         params_hash: id.params_hash,
         motor_hz: id.motor_hz,
         piezo_hz: id.piezo_hz,
+        settings,
     }
 }
