@@ -479,6 +479,20 @@ fn measure<R>(states: &[State], overhead: u32, mut f: impl FnMut(&State) -> (R, 
     s
 }
 
+/// A receive path's instructions per byte, to a tenth, of its frames of `RX_FRAME` bytes.
+fn print_per_byte(set: &str, path: &str, frames: &Stat) {
+    let per_byte =
+        (frames.sum * 10 + frames.n * RX_FRAME as u32 / 2) / (frames.n.max(1) * RX_FRAME as u32);
+    defmt::info!(
+        "BENCH {=str} {=str}: {=u32}.{=u32} instructions per byte (frames of {=usize} bytes)",
+        set,
+        path,
+        per_byte / 10,
+        per_byte % 10,
+        RX_FRAME
+    );
+}
+
 fn controller(law: MotorLaw) -> Controller<f32> {
     Controller::paper(
         law,
@@ -755,15 +769,7 @@ fn main() -> ! {
             &frames,
             gated(BUDGET_LINK_RX_FRAME_MEAN),
         );
-        let per_byte = (frames.sum * 10 + frames.n * RX_FRAME as u32 / 2)
-            / (frames.n.max(1) * RX_FRAME as u32);
-        defmt::info!(
-            "BENCH {=str} link receive path: {=u32}.{=u32} instructions per byte (frames of {=usize} bytes)",
-            set,
-            per_byte / 10,
-            per_byte % 10,
-            RX_FRAME
-        );
+        print_per_byte(set, "link receive path", &frames);
         // The hardware board's DMA receive path, the same frames (the buffer wraps every
         // 512 / 26 frames, so some frames are read in two chunks, as on the board).
         let mut rx = RxDma {
@@ -793,15 +799,7 @@ fn main() -> ! {
             &frames,
             gated(BUDGET_LINK_RX_DMA_FRAME_MEAN),
         );
-        let per_byte = (frames.sum * 10 + frames.n * RX_FRAME as u32 / 2)
-            / (frames.n.max(1) * RX_FRAME as u32);
-        defmt::info!(
-            "BENCH {=str} link DMA receive path: {=u32}.{=u32} instructions per byte (frames of {=usize} bytes)",
-            set,
-            per_byte / 10,
-            per_byte % 10,
-            RX_FRAME
-        );
+        print_per_byte(set, "link DMA receive path", &frames);
     }
     exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
     loop {
