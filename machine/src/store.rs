@@ -29,8 +29,9 @@ use sequential_storage::map::{MapConfig, MapStorage};
 
 use crate::session::{Home, home};
 
-/// The record's layout version: bumped when [`encode`]'s layout changes.
-pub const SCHEMA: u16 = 1;
+/// The record's layout version: bumped when [`encode`]'s layout changes (2: a presence bitmap
+/// in place of each value's index, so 24 parameters fit a 256-byte page's record).
+pub const SCHEMA: u16 = 2;
 
 /// The map's key of the settings record.
 const KEY: u8 = 0;
@@ -38,8 +39,12 @@ const KEY: u8 = 0;
 /// The number of parameters (the link's declaration).
 pub const COUNT: usize = PARAMS.len();
 
-/// The longest record [bytes]: the header, every parameter, the CRC.
-pub const MAX_RECORD: usize = 9 + COUNT * 5 + 4;
+/// The longest record [bytes]: the header (layout, protocol, configuration hash, the bitmap of
+/// the values held), every parameter's value, the CRC.
+pub const MAX_RECORD: usize = 12 + COUNT * 4 + 4;
+
+// The bitmap is one word.
+const _: () = assert!(COUNT <= 32, "more parameters than the record's bitmap holds");
 
 /// The map's work buffer [bytes]: a record and its key, rounded up to a word of 4 bytes.
 pub const BUFFER: usize = (MAX_RECORD + 1).div_ceil(4) * 4;
@@ -130,11 +135,12 @@ pub fn encode(values: &Values, params_hash: u32, out: &mut [u8; MAX_RECORD]) -> 
     put(out, &mut n, &SCHEMA.to_le_bytes());
     put(out, &mut n, &flexarm_link::VERSION.to_le_bytes());
     put(out, &mut n, &params_hash.to_le_bytes());
-    let count = (0..COUNT).filter(|&i| values.get(i).is_some()).count() as u8;
-    put(out, &mut n, &[count]);
+    let held = (0..COUNT)
+        .filter(|&i| values.get(i).is_some())
+        .fold(0u32, |m, i| m | 1 << i);
+    put(out, &mut n, &held.to_le_bytes());
     for i in 0..COUNT {
         if let Some(v) = values.get(i) {
-            put(out, &mut n, &[i as u8]);
             put(out, &mut n, &v.to_le_bytes());
         }
     }
@@ -159,11 +165,11 @@ pub fn decode(record: &[u8], params_hash: u32) -> Loaded {
     if word(crc).map(u32::from_le_bytes) != Some(CRC.checksum(body)) {
         return corrupt;
     }
-    let (Some(schema), Some(version), Some(hash), Some(&count)) = (
+    let (Some(schema), Some(version), Some(hash), Some(held)) = (
         body.get(0..2).and_then(half).map(u16::from_le_bytes),
         body.get(2..4).and_then(half).map(u16::from_le_bytes),
         body.get(4..8).and_then(word).map(u32::from_le_bytes),
-        body.get(8),
+        body.get(8..12).and_then(word).map(u32::from_le_bytes),
     ) else {
         return corrupt;
     };
@@ -173,19 +179,19 @@ pub fn decode(record: &[u8], params_hash: u32) -> Loaded {
     if hash != params_hash {
         return Loaded::Refused(SettingsRefusal::Hash);
     }
-    let items = body.get(9..).unwrap_or(&[]);
-    if items.len() != usize::from(count) * 5 {
+    let items = body.get(12..).unwrap_or(&[]);
+    if held >> COUNT != 0 || items.len() != held.count_ones() as usize * 4 {
         return corrupt;
     }
     let mut values = Values::none();
-    for item in items.chunks_exact(5) {
-        let (Some(&i), Some(v)) = (item.first(), item.get(1..5).and_then(word)) else {
+    let mut next = items.chunks_exact(4);
+    for (i, slot) in values.0.iter_mut().enumerate() {
+        if held & (1 << i) == 0 {
+            continue;
+        }
+        let Some(v) = next.next().and_then(word).map(f32::from_le_bytes) else {
             return corrupt;
         };
-        let Some(slot) = values.0.get_mut(usize::from(i)) else {
-            return corrupt;
-        };
-        let v = f32::from_le_bytes(v);
         if v.is_nan() {
             return corrupt;
         }
