@@ -44,7 +44,10 @@ pub const COUNT: usize = PARAMS.len();
 pub const MAX_RECORD: usize = 12 + COUNT * 4 + 4;
 
 // The bitmap is one word.
-const _: () = assert!(COUNT <= 32, "more parameters than the record's bitmap holds");
+const _: () = assert!(
+    COUNT <= 32,
+    "more parameters than the record's bitmap holds"
+);
 
 /// The map's work buffer [bytes]: a record and its key, rounded up to a word of 4 bytes.
 pub const BUFFER: usize = (MAX_RECORD + 1).div_ceil(4) * 4;
