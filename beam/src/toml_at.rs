@@ -221,10 +221,25 @@ pub fn de_error(text: &str, e: &toml::de::Error) -> String {
         None => at,
     };
     let line = doc.line(span.start);
-    match key {
+    let out = match key {
         Some(k) => format!("line {line}: `{k}`: {msg}"),
         None => format!("line {line}: {msg}"),
-    }
+    };
+    printable(&out)
+}
+
+/// `s` with its control characters escaped (`\n`, `\u{7}`): a key may be a quoted string
+/// holding any of them, and an error stays one line (found by `cargo fuzz run scenario`).
+fn printable(s: &str) -> String {
+    s.chars()
+        .flat_map(|c| {
+            let escaped = c.is_control().then(|| c.escape_default());
+            escaped
+                .into_iter()
+                .flatten()
+                .chain((!c.is_control()).then_some(c))
+        })
+        .collect()
 }
 
 /// An error about the TOML file `file` (of content `text`) as `<file>:<line>: <message>`: the
@@ -340,6 +355,23 @@ mod tests {
     use super::*;
 
     const TEXT: &str = "name = \"x\"\n\n[plant]\nkind = \"truth\"\nzeta = [\n  0.1,\n  0.2,\n]\n\n[plant.sub]\na.b = 1\nw = { x = 2 }\n";
+
+    /// A quoted key may hold a newline: the error escapes it and stays one line (the scenario
+    /// fuzz target found it).
+    #[test]
+    fn a_key_with_a_newline_gives_a_one_line_error() {
+        #[derive(Debug, serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct Only {
+            name: String,
+        }
+        let text = "name = \"x\"\n\"a\\nb\" = 1\n";
+        let e = toml::from_str::<Only>(text).unwrap_err();
+        let msg = de_error(text, &e);
+        assert!(!msg.contains('\n') && msg.contains("a\\nb"), "{msg}");
+        assert!(msg.starts_with("line 2: "), "{msg}");
+    }
 
     #[test]
     fn a_line_starts_after_its_newline() {
