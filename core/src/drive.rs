@@ -49,7 +49,7 @@ use crate::controller::{Controller, MotorReport};
 use crate::fault::Fault;
 use crate::homing::{self, Homing, Search};
 use crate::kinematics::{Elbow, Planar2};
-use crate::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict, predicted};
+use crate::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use crate::observer::Measurement;
 use crate::real::Real;
 use crate::retained::HeatStore;
@@ -610,16 +610,12 @@ impl<T: Real> Drive<T> {
             // ahead (0.018 rad at the circle's 1.84 rad/s and 100 Hz, which the checks took
             // for tracking error). The speed is the observer's latest.
             let (q_hat, qd) = (ctrl.step_estimate(), ctrl.estimate().1);
-            let tau = report.command.tau;
-            let (accel, inertia_inv) = predicted(&ctrl.motor.model, &q_hat, &qd, tau);
-            let sample = MotionSample {
-                theta: y.theta,
-                theta_d: q_hat.xy() - law.error,
-                speed: qd.xy(),
-                tau,
-                accel,
-                inertia_inv,
-            };
+            let sample = MotionSample::new(
+                &ctrl.motor.model,
+                (y.theta, q_hat.xy() - law.error),
+                (&q_hat, &qd),
+                report.command.tau,
+            );
             match self.monitor.check(&self.motion, &sample, ctrl.motor_period) {
                 Verdict::Clear => {}
                 Verdict::Trip(f) => {

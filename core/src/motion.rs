@@ -27,7 +27,7 @@
 //! acceleration is at least `a` means a frozen encoder (or a joint held by something the model
 //! does not know: an obstacle, a brake) once `a (nT)² > 8c`. The least acceleration is the
 //! model's: `θ̈ = [B⁻¹(u − C q̇ − K q − D q̇)]_θ` at the observer's estimate for the torques
-//! commanded ([`predicted`]: the other joint's reaction, the link's elastic pull and the
+//! commanded ([`MotionSample::new`]: the other joint's reaction, the link's elastic pull and the
 //! centrifugal terms in it), less what `stall_friction` can explain (mapped through the hubs'
 //! inverse inertia `S⁻¹`), divided by `stall_margin` for an arm heavier than its model. As the
 //! acceleration varies, the check keeps [`STALL_LEVELS`] levels `a_k = stall_accel · 2^k`, each
@@ -203,31 +203,43 @@ pub struct MotionSample<T> {
     /// Torques commanded [N·m].
     pub tau: Vector2<T>,
     /// The joints' accelerations the model predicts for `tau` at the observer's estimate
-    /// [rad/s²] ([`predicted`]).
+    /// [rad/s²] ([`Self::new`]).
     pub accel: Vector2<T>,
     /// The hubs' inverse inertia `S⁻¹` there [1/(kg·m²)]: what a torque the model leaves out
     /// (friction) does to the accelerations.
     pub inertia_inv: Matrix2<T>,
 }
 
-/// The model's joint accelerations and the hubs' inverse inertia for the torques `tau` [N·m]
-/// at the state `(q, q̇)` (module docs, the stall check): `θ̈ = [B⁻¹(u − C q̇ − K q − D q̇)]_θ`
-/// with `u = (τ, 0)`, and `S⁻¹ = (B_θθ − B_θδ B_δθ)⁻¹`. Zeros (the stall check counts nothing)
-/// when the state is not finite.
-pub fn predicted<T: Real>(
-    model: &Model<T>,
-    q: &Vector4<T>,
-    qd: &Vector4<T>,
-    tau: Vector2<T>,
-) -> (Vector2<T>, Matrix2<T>) {
-    let terms = model.terms(q);
-    let u = Vector4::new(tau.x, tau.y, T::zero(), T::zero());
-    match (
-        model.acceleration_with(&terms, q, qd, &u),
-        terms.schur_inverse(),
-    ) {
-        (Some(a), Some(s_inv)) => (a.xy(), s_inv),
-        _ => (Vector2::zeros(), Matrix2::zeros()),
+impl<T: Real> MotionSample<T> {
+    /// The sample of a period: the encoders' angles `theta` [rad], the reference `theta_d`
+    /// [rad], the torques commanded `tau` [N·m] and the state `(q, q̇)` the law ran on (the
+    /// observer's, or the measured one), with the model's joint accelerations for `tau` there,
+    /// `θ̈ = [B⁻¹(u − C q̇ − K q − D q̇)]_θ` with `u = (τ, 0)`, and the hubs' inverse inertia
+    /// `S⁻¹ = (B_θθ − B_θδ B_δθ)⁻¹` (module docs, the stall check). Both zero (the stall check's
+    /// acceleration bound counts nothing) when the state is not finite.
+    pub fn new(
+        model: &Model<T>,
+        (theta, theta_d): (Vector2<T>, Vector2<T>),
+        (q, qd): (&Vector4<T>, &Vector4<T>),
+        tau: Vector2<T>,
+    ) -> Self {
+        let terms = model.terms(q);
+        let u = Vector4::new(tau.x, tau.y, T::zero(), T::zero());
+        let (accel, inertia_inv) = match (
+            model.acceleration_with(&terms, q, qd, &u),
+            terms.schur_inverse(),
+        ) {
+            (Some(a), Some(s_inv)) => (a.xy(), s_inv),
+            _ => (Vector2::zeros(), Matrix2::zeros()),
+        };
+        Self {
+            theta,
+            theta_d,
+            speed: qd.xy(),
+            tau,
+            accel,
+            inertia_inv,
+        }
     }
 }
 

@@ -23,7 +23,7 @@ use flexarm_core::control::select::PiezoLawKind;
 use flexarm_core::controller::Controller;
 use flexarm_core::indices::{L2Norm, TailMean};
 use flexarm_core::model::Model;
-use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict, predicted};
+use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use flexarm_core::observer::{NoiseModel, design, film_map};
 use flexarm_core::params::{ArmParams, Gains, Limits, ParamError};
 use flexarm_core::time::Ticks;
@@ -1026,17 +1026,13 @@ fn run_firmware(
             return Err(SimError::Fault { fault, t });
         }
         let ctrl = &rig.control.ctrl;
-        let theta_d = p.q.xy() - p.error;
         let qd = ctrl.estimate().1;
-        let (accel, inertia_inv) = predicted(&ctrl.motor.model, &p.q, &qd, p.command.tau);
-        let sample = MotionSample {
-            theta: p.y.theta,
-            theta_d,
-            speed: qd.xy(),
-            tau: p.command.tau,
-            accel,
-            inertia_inv,
-        };
+        let sample = MotionSample::new(
+            &ctrl.motor.model,
+            (p.y.theta, p.q.xy() - p.error),
+            (&p.q, &qd),
+            p.command.tau,
+        );
         watch(
             &mut sum,
             &mut monitor,
@@ -1131,28 +1127,15 @@ fn run_paper(
             };
             let (q32, qd32) = (seen.q.cast::<f32>(), seen.qd.cast::<f32>());
             // The joints' integral action, as the controller runs it (none with the paper's
-            // gains).
-            let shifted = integral.shift(&motor.gains, &target, q32.xy(), qd32.xy());
+            // gains), the true state its measurement.
+            let shifted = integral.prepare(&motor.gains, &target, (q32.xy(), qd32.xy()), None);
             let mut out = motor
                 .step(local as f32, &q32, &qd32, &shifted)
                 .map_err(|fault| SimError::Fault { fault, t })?;
-            out.error -= integral.offset(&motor.gains);
-            integral.update(
-                &motor.gains,
-                out.error,
-                out.tau,
-                motor.limits.tau_max,
-                motor_dt as f32,
-            );
-            let (accel, inertia_inv) = predicted(&motor.model, &q32, &qd32, out.tau);
-            let sample = MotionSample {
-                theta: q32.xy(),
-                theta_d: target.q,
-                speed: qd32.xy(),
-                tau: out.tau,
-                accel,
-                inertia_inv,
-            };
+            let limits = (out.tau, motor.limits.tau_max);
+            integral.finish(&motor.gains, &mut out.error, limits, motor_dt as f32);
+            let sample =
+                MotionSample::new(&motor.model, (q32.xy(), target.q), (&q32, &qd32), out.tau);
             watch(&mut sum, &mut monitor, &motion, &sample, t, motor_dt);
             tau = out.tau.cast::<f64>();
             let sample = Sample {

@@ -44,11 +44,6 @@ impl<T: Real> Integral<T> {
         }
     }
 
-    /// `z` [rad·s].
-    pub fn state(&self) -> Vector2<T> {
-        self.z
-    }
-
     /// Forgets it (a new arm, a reset).
     pub fn reset(&mut self) {
         *self = Self::new();
@@ -56,13 +51,13 @@ impl<T: Real> Integral<T> {
 
     /// The integral's share of the reference, `K_i z` [rad]: the law's error `θ − θ_d'` less
     /// it is the joint's `θ − θ_d`.
-    pub fn offset(&self, gains: &Gains<T>) -> Vector2<T> {
+    fn offset(&self, gains: &Gains<T>) -> Vector2<T> {
         gains.ki.component_mul(&self.z)
     }
 
     /// The target the law tracks (module docs) for the joints' estimate `θ` [rad], `θ̇`
     /// [rad/s]: `target` itself when `K_i = 0`.
-    pub fn shift(
+    fn shift(
         &self,
         gains: &Gains<T>,
         target: &JointTarget<T>,
@@ -109,7 +104,7 @@ impl<T: Real> Integral<T> {
 
     /// Integrates one period `dt` [s] of the joint error `error = θ − θ_d` [rad] with the
     /// torques commanded `tau` against their limits `tau_max` [N·m] (module docs).
-    pub fn update(
+    fn update(
         &mut self,
         gains: &Gains<T>,
         error: Vector2<T>,

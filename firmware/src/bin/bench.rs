@@ -33,7 +33,7 @@ use flexarm_core::control::piezo::PiezoPatch;
 use flexarm_core::control::tracking::eq7_torques;
 use flexarm_core::controller::Controller;
 use flexarm_core::model::Model;
-use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict, predicted};
+use flexarm_core::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use flexarm_core::observer::Measurement;
 use flexarm_core::observer_gains::{GAIN_1KHZ, gain};
 use flexarm_core::params::{ArmParams, DEFAULT_KI, Gains, Limits};
@@ -317,15 +317,7 @@ fn call_motion(
 ) -> (f32, u32) {
     timed(((m, l), model, s), |((m, l), model, s)| {
         let tau = Vector2::new(s.qd.x, -s.qd.y);
-        let (accel, inertia_inv) = predicted(model, &s.q, &s.qd, tau);
-        let sample = MotionSample {
-            theta: Vector2::new(s.q.x, s.q.y),
-            theta_d: s.target.q,
-            speed: Vector2::new(s.qd.x, s.qd.y),
-            tau,
-            accel,
-            inertia_inv,
-        };
+        let sample = MotionSample::new(model, (s.q.xy(), s.target.q), (&s.q, &s.qd), tau);
         let v = m.check(l, &sample, 1e-3);
         m.update_heat(l, tau, 1e-3);
         if v == Verdict::Clear { m.heat.x } else { -1.0 }
