@@ -103,23 +103,18 @@ def executed(log):
     it again ("cpu_io_recompile: rewound"), and it logs a block before it checks for a pending
     interrupt or timer deadline, which may stop it ("Stopped execution of TB chain before")."""
     pending = None
-    cut = None
     with open(log) as f:
         for n, line in enumerate(f, 1):
-            if cut is not None:
-                die(f"{log}:{cut}: a trace line without its block's address")
             if line.startswith(("cpu_io_recompile: rewound", "Stopped execution of TB chain")):
                 pending = None
             elif line.startswith("Trace"):
                 if pending is not None:
                     yield pending
                 fields = line.split("/")
-                try:
-                    pending = int(fields[1], 16)
-                except (IndexError, ValueError):
-                    # Only the log's last line may be cut (QEMU's last write as it exits): its
-                    # block is dropped, as any block whose end is not known.
-                    pending, cut = None, n
+                if len(fields) < 2:
+                    die(f"{log}:{n}: a trace line without its block's address: the log is cut "
+                        "(the disk full?)")
+                pending = int(fields[1], 16)
     if pending is not None:
         yield pending
 

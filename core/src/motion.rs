@@ -164,7 +164,7 @@ impl<T: Real> MotionLimits<T> {
             stall_friction: both(0.1),
             stall_margin: T::c(5.0),
             stall_accel: T::c(0.02),
-            stall_speed_error: T::c(0.1 * (1000.0 / f64::from(motor_hz.max(1))).max(1.0)),
+            stall_speed_error: T::c(0.1),
             range_min: Vector2::new(T::c(-core::f64::consts::PI), T::c(-2.8)),
             range_max: Vector2::new(T::c(core::f64::consts::PI), T::c(2.8)),
             stop_accel: both(10.0),
