@@ -236,6 +236,7 @@ pub fn set_value(name: &str, p: Param, value: f32) -> Result<(), ConsoleError> {
         piezo_period: piezo,
         tau_ceiling: Vector2::repeat(f32::INFINITY),
         v_a_ceiling: f32::INFINITY,
+        rate_ceiling: &flexarm_core::tuning::RateCeiling::NONE,
     };
     match tuning.set(&mut ctrl, Mode::Armed, tunable, value) {
         Ok(()) => Ok(()),

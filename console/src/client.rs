@@ -118,6 +118,9 @@ pub fn refusal(r: Refusal) -> &'static str {
         Refusal::NotArmed => "the drive is disarmed (`arm` first)",
         Refusal::CauseActive => "the fault's cause is still there (or no fault is latched)",
         Refusal::OutOfRange => "a value is out of its range or not finite",
+        Refusal::Unstable => {
+            "outside what the board's model says is stable at its loop rates, with a factor of 2 (the motor gains' sampled-loop rule; the rate law's k_c ceiling at its filter corner, docs/console.md)"
+        }
         Refusal::Unreachable => "the move leaves the arm's reach or the joints' ranges",
         Refusal::TooFast => "the move asks more speed, acceleration or torque than the limits",
         Refusal::Waypoints => {

@@ -2,7 +2,8 @@
 //! the motor gains `K_p`, `Λ`, `D_Δ`, the piezo gain `k_c` and its filter corner, the torque and
 //! voltage limits. A change is validated with the rules of [`Controller::new`], against the
 //! board's ceilings (and the torque limits against a floor, [`TAU_FLOOR_SHARE`]), with the filter corner below the piezo loop's Nyquist rate and the motor
-//! gains inside the sampled loop's stable region at the motor period, before
+//! gains inside the sampled loop's stable region at the motor period and the rate law's `k_c`
+//! within the board's [`RateCeiling`] (both refused as [`TuneError::Unstable`]), before
 //! anything is written, refused while a move runs, and written whole
 //! between two control steps (the caller holds the controller, so neither loop sees half of it).
 //! Units as in `crate::params` and `crate::control::piezo`.
@@ -75,6 +76,55 @@ pub enum TuneError {
     /// The law's design rule needs the film's static gain measured (`film_static`, larger
     /// than the controller's two modes' share; `flexarm bringup`'s film step).
     Unidentified,
+    /// Outside the region the model says is stable with margin at the loop's rate: the motor
+    /// gains past the sampled loop's rule, or the rate law's `k_c` past its
+    /// [`RateCeiling`] at the filter's corner.
+    Unstable,
+}
+
+/// Rows of a [`RateCeiling`].
+pub const RATE_CEILING_ROWS: usize = 16;
+
+/// The paper's rate law's gain ceiling by filter corner on one board (issue 36: `set`
+/// validated for stability). Rows `[f_i, g_i]`, corners `f_i` ascending [Hz], `g_i` a bound on
+/// the product `k_c f_c` [s·Hz]: a corner `f_c` in `(f_{i−1}, f_i]` allows
+/// `k_c ≤ g_i / f_c`; a corner past the last row's is refused.
+///
+/// `B(f_c)`, the bound, is half the gain at which the sampled loop (Tustin-filtered derivative,
+/// zero-order hold, the board's film delay and amplifier) goes unstable on the link the board
+/// drives: a stability factor of 2, the spillover study's rule (`docs/results.md`,
+/// "Spillover"). Each `g_i` is the least `B(f) f` over corners sampled between `f_{i−1}` and
+/// `f_i`: above the filter's corner the law acts on the modes with a gain near `k_c ω_c`, so
+/// `B(f) f` varies slowly and the step costs little, and a corner between rows is held to no
+/// more than the loop allows there. Computed on the host from the model file (`cargo sim
+/// firmware-params`, `firmware_params::rate_ceilings`, which says which link each board's is
+/// computed on).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RateCeiling<T> {
+    /// `[f_i, g_i]`, `f_i` ascending [Hz, s·Hz].
+    pub rows: [[T; 2]; RATE_CEILING_ROWS],
+}
+
+impl RateCeiling<f32> {
+    /// No ceiling: a host's check before it knows the board, a study's board.
+    pub const NONE: Self = Self {
+        rows: [[f32::INFINITY; 2]; RATE_CEILING_ROWS],
+    };
+}
+
+impl<T: Real> RateCeiling<T> {
+    /// The largest `k_c` [s] allowed at the corner `cutoff_hz` (0 past the last row's corner).
+    pub fn k_c_max(&self, cutoff_hz: T) -> T {
+        self.rows
+            .iter()
+            .find(|[f, _]| cutoff_hz <= *f)
+            .map_or(T::zero(), |[_, g]| *g / cutoff_hz)
+    }
+
+    /// Whether the rate law's `gains` are within the ceiling.
+    pub fn allows(&self, gains: &PiezoGains<T>) -> bool {
+        gains.k_c <= self.k_c_max(gains.cutoff_hz)
+    }
 }
 
 /// The smallest torque limit [`Tuning::set`] accepts, as a share of the board's ceiling: 1 %
@@ -92,7 +142,7 @@ fn slot<X>(v: Option<&mut X>) -> Result<&mut X, TuneError> {
 /// The tunable parameters' state besides the controller: the piezo gains (the law keeps them
 /// folded into its filter), its period, and the board's ceilings on the limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Tuning<T> {
+pub struct Tuning<T: 'static> {
     /// The piezo gains in force.
     pub piezo: PiezoGains<T>,
     /// The piezo law in force and the film's measured numbers its design reads (`rate` is
@@ -108,9 +158,11 @@ pub struct Tuning<T> {
     pub tau_ceiling: Vector2<T>,
     /// Largest voltage magnitude the board's piezo output stage delivers, either sign [V].
     pub v_a_ceiling: T,
+    /// The rate law's gain ceiling on this board (held whenever the rate law is selected).
+    pub rate_ceiling: &'static RateCeiling<T>,
 }
 
-impl<T: Real> Tuning<T> {
+impl<T: Real + 'static> Tuning<T> {
     /// The value of `p`.
     pub fn get(&self, ctrl: &Controller<T>, p: Tunable) -> Result<T, TuneError> {
         let g = &ctrl.motor.gains;
@@ -226,9 +278,14 @@ impl<T: Real> Tuning<T> {
             || limits.validate().is_err()
             || !law.is_valid_or_off()
             || !within
-            || !self.sampled_stable(ctrl, p, &gains)
         {
             return Err(TuneError::OutOfRange);
+        }
+        let rate_held = matches!(p, Tunable::Kc | Tunable::CutoffHz | Tunable::PiezoLaw);
+        if !self.sampled_stable(ctrl, p, &gains)
+            || (rate_held && setup.law == PiezoLawKind::Rate && !self.rate_ceiling.allows(&piezo))
+        {
+            return Err(TuneError::Unstable);
         }
         // The selected law, redesigned when what it is built from changed.
         let old = self.setup();

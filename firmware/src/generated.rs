@@ -15,6 +15,7 @@ use flexarm_core::control::select::PiezoLawKind;
 use flexarm_core::drive::MoveLimits;
 use flexarm_core::homing::{Config as HomingConfig, JointHoming, Method};
 use flexarm_core::motion::{MotionLimits, Thermal};
+use flexarm_core::tuning::RateCeiling;
 use flexarm_core::params::{ArmParams, Gains, Limits, ModalData};
 use flexarm_core::{Vector2, Vector4};
 use flexarm_link::msg::Board;
@@ -85,6 +86,12 @@ pub const GAIN_100HZ: [[f32; 3]; 8] = [
     [-2.8407267e-1, -6.703157e-1, -1.2712683e-1],
 ];
 
+/// The rate law's `k_c` ceiling by filter corner on the hardware board (`[f_c [Hz], k_c,max [s]]`,
+/// `flexarm_core::tuning::RateCeiling`; `firmware_params::rate_ceilings`).
+pub const HARDWARE_RATE_CEILING: RateCeiling<f32> = RateCeiling {
+    rows: [[1e0, 9.6197716e1], [1.8374357e0, 9.632204e1], [3.37617e0, 9.644699e1], [6.203495e0, 9.666741e1], [1.1398522e1, 9.704111e1], [2.0944052e1, 9.780699e1], [3.848335e1, 9.929084e1], [7.071068e1, 1.0212625e2], [1e2, 1.0796912e2], [1.2992632e2, 1.14142944e2], [2.3873126e2, 1.22409744e2], [4.3865332e2, 1.469597e2], [8.0599725e2, 1.6938556e2], [1.4809681e3, 2.4051703e2], [2.7211836e3, 4.8188934e2], [5e3, 1.2729407e3]],
+};
+
 /// Everything the hardware board boots with (`flexarm_machine::BoardConfig::for_board` on this
 /// model): its hash is [`HARDWARE_HASH`].
 pub const HARDWARE: BoardConfig = BoardConfig {
@@ -108,6 +115,7 @@ pub const HARDWARE: BoardConfig = BoardConfig {
         cutoff_hz: 1e2,
     },
     piezo_law: PiezoLawKind::Off,
+    rate_ceiling: &HARDWARE_RATE_CEILING,
     film_static: 0e0,
     film_feedthrough: 0e0,
     limits: Limits {
@@ -162,7 +170,13 @@ pub const HARDWARE: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`HARDWARE`], the handshake's `params_hash`.
-pub const HARDWARE_HASH: u32 = 0xcb10dc12;
+pub const HARDWARE_HASH: u32 = 0xe5ad57ee;
+
+/// The rate law's `k_c` ceiling by filter corner on the QEMU board (`[f_c [Hz], k_c,max [s]]`,
+/// `flexarm_core::tuning::RateCeiling`; `firmware_params::rate_ceilings`).
+pub const QEMU_RATE_CEILING: RateCeiling<f32> = RateCeiling {
+    rows: [[1e0, 3.371879e2], [1.5587755e0, 5.2072076e2], [2.429781e0, 6.8159454e2], [3.7874832e0, 9.49217e2], [5.9038363e0, 1.3841571e3], [9.202755e0, 2.0789792e3], [1.4345029e1, 3.175017e3], [2.236068e1, 4.8877437e3], [3.4855278e1, 7.5710444e3], [5.433156e1, 1.1751833e4], [8.46907e1, 1.8266795e4], [1e2, 2.7944254e4], [1.320138e2, 3.3203016e4], [2.0577986e2, 4.4258758e4], [3.207646e2, 6.898947e4], [5e2, 1.0746282e5]],
+};
 
 /// Everything the QEMU board boots with (`flexarm_machine::BoardConfig::for_board` on this
 /// model): its hash is [`QEMU_HASH`].
@@ -187,6 +201,7 @@ pub const QEMU: BoardConfig = BoardConfig {
         cutoff_hz: 1e2,
     },
     piezo_law: PiezoLawKind::Rate,
+    rate_ceiling: &QEMU_RATE_CEILING,
     film_static: 4.780624e-4,
     film_feedthrough: 0e0,
     limits: Limits {
@@ -241,4 +256,4 @@ pub const QEMU: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`QEMU`], the handshake's `params_hash`.
-pub const QEMU_HASH: u32 = 0x7f65e0f1;
+pub const QEMU_HASH: u32 = 0x7c85898f;

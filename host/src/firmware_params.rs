@@ -38,13 +38,18 @@ use flexarm_beam::design::{DesignModel, Weights};
 use flexarm_beam::fragment::{ModesChoice, PiezoChoice, piezo_fragment};
 use flexarm_beam::point::evaluate;
 use flexarm_core::Vector2;
-use flexarm_core::control::piezo::PiezoPatch;
+use flexarm_core::control::piezo::{PiezoGains, PiezoPatch};
 use flexarm_core::model::Model;
 use flexarm_core::observer::{self, Gain, NoiseModel, film_map};
 use flexarm_core::observer_gains::THETA_NOMINAL;
 use flexarm_core::params::ArmParams;
+use flexarm_core::tuning::{RATE_CEILING_ROWS, RateCeiling};
 use flexarm_link::msg::Board;
 use flexarm_machine::BoardConfig;
+
+use crate::spillover::{ModalLink, PiezoLoop, gain_margin};
+use crate::spillover_study::realistic;
+use crate::truth_plant::TruthSpec;
 
 /// The fragment the firmware is built from, relative to the repository root.
 pub const DEFAULT_FRAGMENT: &str = "firmware/piezo.toml";
@@ -100,6 +105,9 @@ pub struct FirmwareParams {
     pub k_c: f64,
     /// Observer gains, one per entry of [`PERIODS`].
     pub gains: [Gain<f64>; 2],
+    /// The rate law's gain ceiling on the hardware board and on the QEMU board
+    /// ([`rate_ceilings`]).
+    pub ceilings: [RateCeiling<f32>; 2],
 }
 
 impl FirmwareParams {
@@ -116,6 +124,7 @@ impl FirmwareParams {
             self.arm.cast::<f32>(),
             self.patch.to_f32(),
             self.k_c as f32,
+            interned(self.ceilings[period]),
             core::array::from_fn(|i| core::array::from_fn(|j| g[(i, j)] as f32)),
         )
     }
@@ -185,6 +194,20 @@ pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
             )));
         }
     }
+    let ceilings = rate_ceilings(&arm, &patch)?;
+    // The QEMU board boots running the rate law: its own gain must be within its ceiling.
+    let shipped = PiezoGains {
+        k_c: k_c as f32,
+        ..PiezoGains::default()
+    };
+    if !ceilings[1].allows(&shipped) {
+        let (cutoff, qemu_max) = (shipped.cutoff_hz, ceilings[1].k_c_max(shipped.cutoff_hz));
+        return Err(Error(format!(
+            "`piezo.k_c` = {k_c} s is above the {qemu_max} s the model's modes allow the rate \
+             law at its {cutoff} Hz corner on the QEMU board's piezo loop (a stability factor \
+             of 2: docs/console.md, \"Stability\")"
+        )));
+    }
     Ok(FirmwareParams {
         choice,
         arm,
@@ -192,7 +215,122 @@ pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
         qemu_slope_diff,
         k_c,
         gains,
+        ceilings,
     })
+}
+
+/// Corners sampled in each row's interval of a [`RateCeiling`].
+pub const SAMPLES: u32 = 16;
+/// The share a row gives up for the margin's variation between its samples: `B(f) f` has dips
+/// a few per cent deep between the modes' resonances on the physical link (the ceiling's test,
+/// `cargo test -p flexarm-host --test firmware_params rate_ceiling`).
+pub const GUARD: f64 = 0.03;
+
+/// The rate law's gain ceilings ([`RateCeiling`]) of the two boards, `[hardware, QEMU]`,
+/// each on the link its loop drives:
+/// - the QEMU board's simulated arm is the model: its two modes (`arm`'s `ω_j`, `ζ_j`, the
+///   patch's `Δφ'_j`, `k_a`, `k_s`), the film read in the same period, an ideal amplifier;
+/// - the hardware board drives a physical link, which has more modes than the model: the
+///   truth plant's link for this arm's length and this patch's place with ten modes (the
+///   spillover study's, `docs/results.md`), its 5 kHz amplifier and the film one period late.
+///
+/// Rows at corners spaced evenly in log from 1 Hz to the Nyquist rate, and at the shipped
+/// corner; each the least `B(f) f` over [`SAMPLES`] corners spaced evenly in log between the
+/// previous row's corner and its own (the first row's from a quarter of its corner), `B` half
+/// the [`gain_margin`] at `k_c = 1 s`, less [`GUARD`] for what varies between the samples. A loop stable at every gain (none that the bisection finds
+/// below 1e6) is held to nothing there; one the eigen-solver cannot settle is allowed nothing.
+pub fn rate_ceilings(
+    arm: &ArmParams<f64>,
+    patch: &PiezoPatch<f64>,
+) -> Result<[RateCeiling<f32>; 2], Error> {
+    let ceiling = |board: Board| -> Result<RateCeiling<f32>, Error> {
+        let (link, law) = ceiling_loop(arm, patch, board)?;
+        let nyquist = 0.5 / law.period;
+        let shipped = f64::from(PiezoGains::<f32>::default().cutoff_hz);
+        let last = (RATE_CEILING_ROWS - 2) as f64;
+        let mut corners: Vec<f64> = (0..RATE_CEILING_ROWS - 1)
+            .map(|k| nyquist.powf(k as f64 / last))
+            .chain([shipped])
+            .collect();
+        corners.sort_by(f64::total_cmp);
+        let product = |f: f64| {
+            let at = PiezoLoop {
+                cutoff_hz: f,
+                ..law
+            };
+            match gain_margin(&link, &at, 1e6) {
+                Ok(Some(m)) => m / 2.0 * f,
+                Ok(None) => f64::INFINITY,
+                Err(_) => 0.0,
+            }
+        };
+        let mut rows = [[0.0f32; 2]; RATE_CEILING_ROWS];
+        let mut below = corners[0] / 4.0;
+        for (row, &f) in rows.iter_mut().zip(&corners) {
+            let least = (1..=SAMPLES)
+                .map(|i| below * (f / below).powf(f64::from(i) / f64::from(SAMPLES)))
+                .map(product)
+                .fold(f64::INFINITY, f64::min);
+            *row = [f as f32, (least * (1.0 - GUARD)) as f32];
+            below = f;
+        }
+        Ok(RateCeiling { rows })
+    };
+    Ok([ceiling(Board::Hardware)?, ceiling(Board::Qemu)?])
+}
+
+/// The link and the rate law's loop (at `k_c = 1 s`, the shipped corner) that
+/// [`rate_ceilings`] computes `board`'s ceiling on.
+pub fn ceiling_loop(
+    arm: &ArmParams<f64>,
+    patch: &PiezoPatch<f64>,
+    board: Board,
+) -> Result<(ModalLink, PiezoLoop), Error> {
+    let law = PiezoLoop {
+        k_c: 1.0,
+        cutoff_hz: f64::from(PiezoGains::<f32>::default().cutoff_hz),
+        period: 1.0 / f64::from(flexarm_machine::config::piezo_hz(board)),
+        delay: false,
+        amplifier_hz: None,
+    };
+    Ok(match board {
+        Board::Hardware => {
+            let spec = TruthSpec {
+                modes: 10,
+                ..TruthSpec::default()
+            };
+            let link = ModalLink::from_truth(&spec, arm, patch)
+                .map_err(|e| Error(format!("the hardware board's rate-law ceiling: {e}")))?;
+            (link, realistic(&spec, law))
+        }
+        Board::Qemu => {
+            let link = ModalLink {
+                omega: arm.modes.omega.iter().copied().collect(),
+                zeta: arm.modes.zeta.iter().copied().collect(),
+                slope_diff: patch.slope_diff.iter().copied().collect(),
+                k_a: patch.k_a,
+                k_s: patch.k_s,
+                feedthrough: 0.0,
+            };
+            (link, law)
+        }
+    })
+}
+
+/// `c` kept for the rest of the process, one copy of each distinct ceiling (a board's
+/// configuration refers to its ceiling, as the firmware's refers to a constant).
+fn interned(c: RateCeiling<f32>) -> &'static RateCeiling<f32> {
+    static KEPT: std::sync::Mutex<Vec<&'static RateCeiling<f32>>> =
+        std::sync::Mutex::new(Vec::new());
+    let mut kept = KEPT
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(k) = kept.iter().find(|k| ***k == c) {
+        return k;
+    }
+    let k: &'static RateCeiling<f32> = Box::leak(Box::new(c));
+    kept.push(k);
+    k
 }
 
 /// The slope differences `Δφ'_j` of `patch` on the QEMU board's simulated arm: the paper's
@@ -302,6 +440,7 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
          use flexarm_core::drive::MoveLimits;\n\
          use flexarm_core::homing::{{Config as HomingConfig, JointHoming, Method}};\n\
          use flexarm_core::motion::{{MotionLimits, Thermal}};\n\
+         use flexarm_core::tuning::RateCeiling;\n\
          use flexarm_core::params::{{ArmParams, Gains, Limits, ModalData}};\n\
          use flexarm_core::{{Vector2, Vector4}};\n\
          use flexarm_link::msg::Board;\n\
@@ -396,6 +535,23 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
         (Board::Qemu, "QEMU", "GAIN_100HZ"),
     ] {
         let c = p.board(board);
+        let rows: Vec<String> = c
+            .rate_ceiling
+            .rows
+            .iter()
+            .map(|[f, k]| format!("[{f:e}, {k:e}]"))
+            .collect();
+        let _ = write!(
+            s,
+            "\n/// The rate law's `k_c` ceiling by filter corner on the {which} (`[f_c [Hz], k_c,max [s]]`,\n\
+             /// `flexarm_core::tuning::RateCeiling`; `firmware_params::rate_ceilings`).\n\
+             pub const {name}_RATE_CEILING: RateCeiling<f32> = RateCeiling {{\n    rows: [{rows}],\n}};\n",
+            which = match board {
+                Board::Hardware => "hardware board",
+                Board::Qemu => "QEMU board",
+            },
+            rows = rows.join(", "),
+        );
         let _ = write!(
             s,
             "\n/// Everything the {which} boots with (`flexarm_machine::BoardConfig::for_board` on this\n\
@@ -407,7 +563,7 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
                 Board::Hardware => "hardware board",
                 Board::Qemu => "QEMU board",
             },
-            lit = config_literal(&c, gain),
+            lit = config_literal(&c, gain, name),
             hash = c.hash(),
         );
     }
@@ -416,7 +572,7 @@ pub fn source(p: &FirmwareParams, names: &Names<'_>) -> String {
 
 /// `c` as a Rust expression, its arm, patch and observer gain the constants [`source`] wrote
 /// (`ARM`, `PATCH`, `gain`).
-fn config_literal(c: &BoardConfig, gain: &str) -> String {
+fn config_literal(c: &BoardConfig, gain: &str, name: &str) -> String {
     let f = |x: f32| format!("{x:e}");
     let v2 = |x: Vector2<f32>| format!("Vector2::new({}, {})", f(x.x), f(x.y));
     let v4 = |x: flexarm_core::Vector4<f32>| {
@@ -451,6 +607,7 @@ fn config_literal(c: &BoardConfig, gain: &str) -> String {
         cutoff_hz: {cutoff_hz},
     }},
     piezo_law: PiezoLawKind::{piezo_law:?},
+    rate_ceiling: &{name}_RATE_CEILING,
     film_static: {film_static},
     film_feedthrough: {film_feedthrough},
     limits: Limits {{

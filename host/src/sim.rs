@@ -503,6 +503,8 @@ impl SimConfig {
             self.arm.cast::<f32>(),
             self.patch.to_f32(),
             piezo.k_c,
+            // A study explores gains: its board holds `set` to no rate-law ceiling.
+            &flexarm_core::tuning::RateCeiling::NONE,
             self.observer_gain(self.rates.plant_dt * motor_div as f64)?,
         );
         c.law = self.law;

@@ -199,6 +199,9 @@ fn what_the_firmware_cannot_run_is_a_readable_error() {
         (set("x_a", "0.5"), "must lie on link 2"),
         (set("k_c", "0.0"), "`piezo.k_c` = 0 must be > 0"),
         (set("k_c", "-3.0"), "`piezo.k_c` = -3 must be > 0"),
+        // A gain past the QEMU board's rate-law ceiling (279 s at its 100 Hz corner), which
+        // would boot that board on a loop with a stability factor under 2.
+        (set("k_c", "500.0"), "`piezo.k_c` = 500 s is above the"),
         (
             ok.replace("[piezo]\n", "[piezo]\ngain = 3.0\n"),
             "unknown field `gain`",
@@ -246,4 +249,60 @@ fn what_the_firmware_cannot_run_is_a_readable_error() {
             }
         }
     }
+}
+
+/// The rate law's ceiling (issue 36, `RateCeiling`) holds a `set` to what it claims on each
+/// board: at every corner, `k_c_max` leaves the loop a stability factor of at least 2 on the
+/// link the ceiling is computed on, and up to a tenth of the Nyquist rate (the corners a rate
+/// filter uses) gives away less than a third of the gain the factor allows; the QEMU board's shipped gain is within its ceiling, the hardware
+/// board's is not (the spillover study: unstable with ten modes), and the study's rule for the
+/// hardware (3.16 s at 30 Hz) is.
+#[test]
+fn the_rate_ceiling_leaves_a_factor_of_2_at_every_corner() {
+    use flexarm_host::firmware_params::ceiling_loop;
+    use flexarm_host::spillover::{PiezoLoop, gain_margin};
+    use flexarm_link::msg::Board;
+    let p = design(&paper_fragment().unwrap()).unwrap();
+    for (i, board) in [Board::Hardware, Board::Qemu].into_iter().enumerate() {
+        let ceiling = &p.ceilings[i];
+        assert!(std::ptr::eq(
+            p.board(board).rate_ceiling,
+            p.board(board).rate_ceiling
+        ));
+        assert_eq!(*p.board(board).rate_ceiling, *ceiling);
+        let (link, law) = ceiling_loop(&p.arm, &p.patch, board).unwrap();
+        let nyquist = 0.5 / law.period;
+        let (mut least, mut most) = (f64::INFINITY, 0.0f64);
+        for k in 0..40 {
+            let f = 0.5 * (0.99 * nyquist / 0.5).powf(f64::from(k) / 39.0);
+            let k_c = f64::from(ceiling.k_c_max(f as f32));
+            assert!(k_c > 0.0 && k_c.is_finite(), "{board:?} at {f} Hz: {k_c}");
+            let at = PiezoLoop {
+                k_c,
+                cutoff_hz: f,
+                ..law
+            };
+            let m = gain_margin(&link, &at, 1e6).unwrap().unwrap();
+            least = least.min(m);
+            if f <= 0.1 * nyquist {
+                most = most.max(m);
+            }
+        }
+        println!(
+            "{board:?}: the factor left at the ceiling: at least {least:.3} (0.5 Hz to Nyquist), \
+             at most {most:.3} (0.5 Hz to a tenth of Nyquist)"
+        );
+        let at: Vec<String> = [10.0f32, 30.0, 100.0, 300.0]
+            .iter()
+            .map(|f| format!("{f} Hz: {:.3} s", ceiling.k_c_max(*f)))
+            .collect();
+        println!("{board:?}: k_c ceiling at {}", at.join(", "));
+        assert!(least >= 2.0, "{board:?}: {least}");
+        assert!(most <= 3.0, "{board:?}: {most}");
+    }
+    let allows =
+        |i: usize, k_c: f32, cutoff_hz: f32| p.ceilings[i].allows(&PiezoGains { k_c, cutoff_hz });
+    assert!(allows(1, 30.0, 100.0), "the QEMU board's shipped gain");
+    assert!(!allows(0, 30.0, 100.0), "the hardware board's shipped gain");
+    assert!(allows(0, 3.16, 30.0), "the spillover study's rule");
 }

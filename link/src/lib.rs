@@ -39,4 +39,4 @@ pub use msg::{Command, DeviceMsg, Reply, Request};
 
 /// The protocol version: a host and a firmware talk only when they agree on it (the
 /// handshake refuses otherwise). Bumped whenever a message changes shape.
-pub const VERSION: u16 = 10;
+pub const VERSION: u16 = 11;

@@ -370,6 +370,10 @@ pub enum Refusal {
     /// The board's settings store failed (a flash error, or a store it cannot read: a
     /// `ConfigErase` formats it).
     Storage,
+    /// Outside the region the board's model says is stable with margin at its loop rates:
+    /// the motor gains past the sampled loop's rule, or the rate law's `k_c` past its ceiling
+    /// at the filter's corner (`flexarm_core::tuning`).
+    Unstable,
 }
 
 /// The handshake's answer.

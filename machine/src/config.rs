@@ -23,7 +23,7 @@ use flexarm_core::params::{ArmParams, DEFAULT_KI, Gains, Limits};
 use flexarm_core::supervisor::{AmplifierMonitor, SensorLimits};
 use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::JointTrajectory;
-use flexarm_core::tuning::Tuning;
+use flexarm_core::tuning::{RateCeiling, Tuning};
 use flexarm_core::{Vector2, Vector4};
 use flexarm_link::msg::{Board, Param};
 
@@ -50,6 +50,9 @@ pub struct BoardConfig {
     pub piezo: PiezoGains<f32>,
     /// The piezo law the board runs (`flexarm_core::control::select`).
     pub piezo_law: PiezoLawKind,
+    /// The rate law's gain ceiling by filter corner on this board's loop and the model's
+    /// modes, which a `Set` is held to (computed on the host: `cargo sim firmware-params`).
+    pub rate_ceiling: &'static RateCeiling<f32>,
     /// The film's static gain `G(0)` [V/V] measured on the arm (0: not measured), which the
     /// laws beside the rate law are designed from.
     pub film_static: f32,
@@ -101,8 +104,9 @@ pub const MOTOR_DIVIDER: u32 = 10;
 
 impl BoardConfig {
     /// The configuration `board` runs with the arm model `arm`, its patch `patch`, the piezo
-    /// gain `k_c` [s] and the observer gain `observer_gain` designed for that board's motor
-    /// period (what `cargo sim firmware-params` generates from a model file).
+    /// gain `k_c` [s], the rate law's ceiling `rate_ceiling` on that board and the observer
+    /// gain `observer_gain` designed for that board's motor period (what `cargo sim
+    /// firmware-params` generates from a model file).
     ///
     /// The boards differ in rates and output stage. The hardware runs the piezo loop at 10 kHz
     /// and the motor loop at 1 kHz, its piezo window is ±[`HARDWARE_PIEZO_V_MAX`], its fault
@@ -134,6 +138,7 @@ impl BoardConfig {
         arm: ArmParams<f32>,
         patch: PiezoPatch<f32>,
         k_c: f32,
+        rate_ceiling: &'static RateCeiling<f32>,
         observer_gain: GainTable,
     ) -> Self {
         let (v_a_max, record_every, link_timeout_s) = match board {
@@ -161,6 +166,7 @@ impl BoardConfig {
                 Board::Hardware => PiezoLawKind::Off,
                 Board::Qemu => PiezoLawKind::Rate,
             },
+            rate_ceiling,
             film_static: match board {
                 Board::Hardware => 0.0,
                 Board::Qemu => model_film_static(&arm, &patch),
@@ -273,6 +279,7 @@ impl BoardConfig {
             piezo_period: self.piezo_period(),
             tau_ceiling: self.limits.tau_max,
             v_a_ceiling: self.limits.v_a_max,
+            rate_ceiling: self.rate_ceiling,
         }
     }
 
@@ -383,6 +390,9 @@ impl BoardConfig {
         }
         f(u32::from(self.piezo_law.code()));
         for v in [self.film_static, self.film_feedthrough] {
+            f(v.to_bits());
+        }
+        for v in self.rate_ceiling.rows.as_flattened() {
             f(v.to_bits());
         }
     }

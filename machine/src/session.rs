@@ -696,6 +696,7 @@ fn tune_refusal(e: TuneError) -> Refusal {
         TuneError::Moving => Refusal::Moving,
         TuneError::Armed => Refusal::Armed,
         TuneError::Unidentified => Refusal::Unidentified,
+        TuneError::Unstable => Refusal::Unstable,
     }
 }
 

@@ -339,13 +339,22 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
     // The board's: its piezo period, its ceilings (10 N·m, the hardware's ±175 V window).
     let mut t = b.rig.cfg.tuning();
     // The hardware board ships the piezo loop off (issue 35), nothing measured: the laws a
-    // design rule builds are refused, the paper's rate law is taken (disarmed).
+    // design rule builds are refused. The paper's rate law at its shipped gain (30 s, 100 Hz)
+    // is past this board's ceiling (issue 36: the spillover study's ten-mode link, a factor of
+    // 2; `RateCeiling`), so it is refused too; at the study's rule (3.16 s, 30 Hz) it is
+    // taken (disarmed). While the law is off its gains are not held to the ceiling.
     use flexarm_core::control::select::PiezoLawKind;
     assert_eq!(b.rig.control.ctrl.selected(), PiezoLawKind::Off);
     assert_eq!(
         b.tune(&mut t, Tunable::PiezoLaw, 3.0),
         Err(TuneError::Unidentified)
     );
+    assert_eq!(
+        b.tune(&mut t, Tunable::PiezoLaw, 1.0),
+        Err(TuneError::Unstable)
+    );
+    b.tune(&mut t, Tunable::CutoffHz, 30.0).unwrap();
+    b.tune(&mut t, Tunable::Kc, 3.16).unwrap();
     b.tune(&mut t, Tunable::PiezoLaw, 1.0).unwrap();
     assert_eq!(b.rig.control.ctrl.selected(), PiezoLawKind::Rate);
     // At rest: applied, and read back. (A K_p whose velocity loop runs at 0.99 of the rate
@@ -385,7 +394,7 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
     let want = PiezoLaw::new(
         &PiezoGains {
             k_c: 3.0,
-            cutoff_hz: 100.0,
+            cutoff_hz: 30.0,
         },
         1e-4,
         175.0,
@@ -412,9 +421,13 @@ fn parameters_are_validated_whole_refused_while_moving_and_applied_at_rest() {
         // Outside the sampled motor loop's stable region at this board's 1 kHz (issue 36):
         // K_p 1e6 (its velocity loop's rate times the period far past 1), Λ 1e9, and a Λ just
         // past the rule λT ≤ 1 (1.005).
-        (Tunable::Kp(0), 1e6, TuneError::OutOfRange),
-        (Tunable::Lambda(0), 1e9, TuneError::OutOfRange),
-        (Tunable::Lambda(1), 1005.0, TuneError::OutOfRange),
+        (Tunable::Kp(0), 1e6, TuneError::Unstable),
+        (Tunable::Lambda(0), 1e9, TuneError::Unstable),
+        (Tunable::Lambda(1), 1005.0, TuneError::Unstable),
+        // The rate law past its ceiling: 3.6 s at 30 Hz (the ceiling 3.3 s there), and the
+        // shipped 100 Hz corner under 3 s (1.1 s there).
+        (Tunable::Kc, 3.6, TuneError::Unstable),
+        (Tunable::CutoffHz, 100.0, TuneError::Unstable),
         (Tunable::Kp(4), 1.0, TuneError::Unknown),
         (Tunable::DDelta(2), 1.0, TuneError::Unknown),
     ] {

@@ -208,7 +208,10 @@ fn every_parameter_is_read_written_at_rest_and_refused_while_moving_or_out_of_ra
         ),
         (Param::Kp0, 2e4, Refusal::OutOfRange),
         // Inside the declared range, outside the sampled loop's stable region at 100 Hz.
-        (Param::Kp1, 10.0, Refusal::OutOfRange),
+        (Param::Kp1, 10.0, Refusal::Unstable),
+        // Inside the declared range, past the rate law's ceiling on this board's arm (279 s
+        // at the 100 Hz corner, a stability factor of 2; `RateCeiling`).
+        (Param::Kc, 400.0, Refusal::Unstable),
         (Param::VaMin, 5.0, Refusal::OutOfRange),
     ] {
         let before = r.answer(Command::Get(p));

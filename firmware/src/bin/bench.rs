@@ -516,6 +516,7 @@ fn recorded() -> [State; N] {
         ArmParams::default(),
         PiezoPatch::paper(),
         30.0,
+        &flexarm_core::tuning::RateCeiling::NONE,
         GAIN_1KHZ,
     );
     let mut arm = SimulatedArm::paper(cfg.patch, Vector4::zeros(), cfg.piezo_period());
