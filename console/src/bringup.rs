@@ -27,7 +27,9 @@
 //!    (default 40) through `va_bias`, for one second. *Sign*: the film's static
 //!    response must have the model's sign (`V_a = −k_c V̇_f` damps only then; inverted, the
 //!    feedback would pump the vibration). *Gain*: its ratio to the model's static gain
-//!    `k_a k_s Σ s_j²/ω_j²` within 0.5–2.
+//!    `k_a k_s Σ s_j²/ω_j²` within 0.5–2. The static level is fitted through the film
+//!    amplifier's high-pass, whose corner it finds too ([`film_step`]): the settled level alone
+//!    reads a tenth of it behind the truth plant's 0.5 Hz corner.
 //!
 //!    When both pass, the film's measured static gain is written to the board's `film_static`
 //!    and its response in the first motor period after the step (over the step) to
@@ -591,6 +593,77 @@ pub fn film_gain_model(model: &flexarm_core::model::Model<f64>, patch: &PiezoPat
     patch.film_voltage(&Vector4::new(0.0, 0.0, ca.x / k.x, ca.y / k.y))
 }
 
+/// What a step of the patch's voltage tells of the film (check 4).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilmStep {
+    /// The patch's step `V_a` [V].
+    pub va: f64,
+    /// The film's static gain `G(0)` [V/V], corrected for the film amplifier's high-pass.
+    pub gain: f64,
+    /// The high-pass's rate `1/τ` the fit found [1/s] (near 0 behind a DC-coupled amplifier).
+    pub highpass: f64,
+    /// The film's response in the first motor period with the step applied, over the step
+    /// [V/V]: the feedthrough and the fast modes' share, before the modes have moved much.
+    pub jump: f64,
+}
+
+/// The film's answer to a step of the patch's voltage: `base` the frames before it (the
+/// settled second half taken as the level), `step` those from the step on, both carrying
+/// `V_a` and `V_f`; `motor_hz` the frames' tick rate. `None` without a step or with fewer than
+/// ten frames of it.
+///
+/// A film amplifier that high-passes its reading (a charge amplifier's corner, the truth
+/// plant's 0.5 Hz) leaves the settled level of a step near 0 within a second: the level
+/// itself reads low. With a first-order high-pass of time constant `τ`, the reading `y` of a
+/// film whose response is `x` obeys `ẏ = ẋ − y/τ`, so from the step on
+/// `x(t) − x(0⁻) = y(t) + (1/τ) ∫₀ᵗ y`. After the step `x = G V_a` plus the modes' ringing about
+/// it, so `y(t) = G V_a − (1/τ) I(t)` plus that ringing, `I` the integral of `y` since the
+/// step: linear in the two unknowns `G V_a` and `1/τ`, fitted by least squares over the
+/// step's frames. Behind a DC-coupled amplifier the fit gives `1/τ` near 0 and `G V_a` near
+/// the settled mean.
+pub fn film_step(base: &[Telemetry], step: &[Telemetry], motor_hz: f64) -> Option<FilmStep> {
+    let settled =
+        |f: &[Telemetry], v: fn(Values) -> f64| mean(f[f.len() / 2..].iter().map(|f| v(values(f))));
+    let (base_va, base_vf) = (settled(base, |v| v.v_a()), settled(base, |v| v.v_f()));
+    let va = settled(step, |v| v.v_a()) - base_va;
+    let first = step
+        .iter()
+        .position(|f| (values(f).v_a() - base_va).abs() > 0.5 * va.abs())?;
+    let frames = &step[first..];
+    if frames.len() < 10 || !va.is_normal() {
+        return None;
+    }
+    // y_k and I_k (the trapezoidal integral from the first frame, taken at its middle).
+    let t0 = frames[0].tick;
+    let (mut integral, mut last) = (0.0, None::<(f64, f64)>);
+    let points: Vec<(f64, f64)> = frames
+        .iter()
+        .map(|f| {
+            let (t, y) = ((f.tick - t0) as f64 / motor_hz, values(f).v_f() - base_vf);
+            integral += last.map_or(0.0, |(lt, ly)| 0.5 * (y + ly) * (t - lt));
+            last = Some((t, y));
+            (y, integral)
+        })
+        .collect();
+    // Least squares of y = a − b I.
+    let n = points.len() as f64;
+    let (sy, si) = points
+        .iter()
+        .fold((0.0, 0.0), |(sy, si), (y, i)| (sy + y, si + i));
+    let (my, mi) = (sy / n, si / n);
+    let (sii, siy) = points.iter().fold((0.0, 0.0), |(sii, siy), (y, i)| {
+        (sii + (i - mi) * (i - mi), siy + (i - mi) * (y - my))
+    });
+    let b = if sii > 0.0 { -siy / sii } else { 0.0 };
+    let a = my + b * mi;
+    Some(FilmStep {
+        va,
+        gain: a / va,
+        highpass: b,
+        jump: points[0].0 / va,
+    })
+}
+
 /// Check 4: the patch's voltage stepped, the film's answer.
 fn film(
     c: &mut Client,
@@ -602,27 +675,31 @@ fn film(
     c.set(Param::VaBias, o.bias)?;
     let step = interrupt::collect(c, 1.0)?;
     c.set(Param::VaBias, 0.0)?;
-    // The settled halves.
-    let settled =
-        |f: &[Telemetry], v: fn(Values) -> f64| mean(f[f.len() / 2..].iter().map(|f| v(values(f))));
-    let (va, vf) = (
-        settled(&step, |v| v.v_a()) - settled(&base, |v| v.v_a()),
-        settled(&step, |v| v.v_f()) - settled(&base, |v| v.v_f()),
-    );
-    let measured = vf / va;
-    // The first frame with the step applied: the film's response within one motor period,
-    // before the modes have moved much (the feedthrough and the fast modes' share).
-    let base_va = settled(&base, |v| v.v_a());
-    let base_vf = settled(&base, |v| v.v_f());
-    let jump = step
-        .iter()
-        .map(|f| values(f))
-        .find(|v| (v.v_a() - base_va).abs() > 0.5 * va.abs())
-        .map(|v| (v.v_f() - base_vf) / va);
+    let Some(s) = film_step(&base, &step, f64::from(c.hello.motor_hz)) else {
+        r.record(
+            "film sign",
+            false,
+            "no step of the patch's voltage in the telemetry".into(),
+            "the film's answer to the step",
+            "the board did not apply `va_bias`: check that the drive holds and the piezo window"
+                .into(),
+        );
+        return Ok(());
+    };
+    let (measured, va) = (s.gain, s.va);
     let expected = film_gain_model(model, &PiezoPatch::<f64>::paper());
     let ratio = measured / expected;
+    // The high-pass named when the fit finds one well above the record's resolution.
+    let highpass = if s.highpass > 0.1 {
+        format!(
+            ", the film amplifier's high-pass τ ≈ {:.2} s taken out",
+            1.0 / s.highpass
+        )
+    } else {
+        String::new()
+    };
     let text = format!(
-        "{:+.2e} V/V ({ratio:+.2} × the model's, V_a step {va:.1} V)",
+        "{:+.2e} V/V ({ratio:+.2} × the model's, V_a step {va:.1} V{highpass})",
         measured
     );
     if !r.record(
@@ -645,8 +722,8 @@ fn film(
     ) {
         // What the laws' design rules are built from (issue 35).
         c.set(Param::FilmStatic, measured as f32)?;
-        if let Some(f) = jump.filter(|f| f.is_finite() && f.abs() <= 1.0) {
-            c.set(Param::FilmFeedthrough, f as f32)?;
+        if s.jump.is_finite() && s.jump.abs() <= 1.0 {
+            c.set(Param::FilmFeedthrough, s.jump as f32)?;
         }
     }
     Ok(())
