@@ -37,7 +37,7 @@ fn record(spec: TruthSpec) -> (Vec<Telemetry>, Vec<Telemetry>, f64) {
         channels,
     });
     assert_eq!(sub, Reply::Done);
-    let mut run = |rig: &mut flexarm_host::rig::Rig<_>, seconds: f64| {
+    let run = |rig: &mut flexarm_host::rig::Rig<_>, seconds: f64| {
         let mut frames: Vec<Telemetry> = Vec::new();
         for _ in 0..(seconds * motor_hz).round() as usize {
             rig.period();
