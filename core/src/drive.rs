@@ -44,6 +44,7 @@
 //! joint frames.
 
 use crate::Vector2;
+use crate::brake::BrakeWatch;
 use crate::control::motor::MotorController;
 use crate::controller::{Controller, MotorReport};
 use crate::fault::Fault;
@@ -266,6 +267,8 @@ pub struct Drive<T> {
     homing: Homing<T>,
     /// The board's homing inputs of this period ([`Drive::homing_inputs`]).
     inputs: homing::Inputs<T>,
+    /// The holding brakes' watch (`crate::brake`).
+    brakes: BrakeWatch<T>,
 }
 
 impl<T: Real> Drive<T> {
@@ -298,6 +301,7 @@ impl<T: Real> Drive<T> {
             written: ctrl.motor.limits.tau_max,
             homing: Homing::new(homing::Config::default()),
             inputs: homing::Inputs::default(),
+            brakes: BrakeWatch::new(),
         }
     }
 
@@ -588,6 +592,8 @@ impl<T: Real> Drive<T> {
     ) -> MotorReport<T> {
         self.advance(ctrl, now);
         self.derate(ctrl);
+        // The brakes' watch reads the encoders' own frame (`crate::brake`).
+        let encoders = y.map(|y| y.theta);
         // The encoders' reading in the arm's frame (`crate::homing`).
         let y = y.map(|y| self.arm_frame(y));
         let y = y.as_ref();
@@ -650,6 +656,21 @@ impl<T: Real> Drive<T> {
             report.command = Command::safe();
         }
         self.watch_link(ctrl, now);
+        // A brake that does not hold: latched once no other fault is (module `crate::brake`).
+        // The output follows this period's command (engaged whenever the amplifiers are cut).
+        let engaged = !report.command.enable;
+        if let Some(theta) = encoders
+            && self.brakes.update(
+                engaged,
+                theta,
+                self.motion.brake_settle_periods,
+                self.motion.brake_travel,
+            )
+            && engaged
+            && ctrl.fault().is_none()
+        {
+            ctrl.trip(Fault::BrakeSlip);
+        }
         self.next = now.next();
         report
     }
@@ -1284,7 +1305,8 @@ impl<T: Real> Drive<T> {
             | Fault::Runaway
             | Fault::FrozenEncoder
             | Fault::Overspeed
-            | Fault::SoftLimit => measured.is_some(),
+            | Fault::SoftLimit
+            | Fault::BrakeSlip => measured.is_some(),
             Fault::Overload => {
                 let h = self.monitor.heat;
                 let cool = self.motion.thermal.derate;
@@ -1305,6 +1327,11 @@ impl<T: Real> Drive<T> {
         ) {
             theta -= self.homing.offset();
             self.homing.forget();
+        }
+        // The operator has seen the brake's fault: the watch starts again from the pose the
+        // brake holds now (it trips again if the brake still does not hold).
+        if fault == Fault::BrakeSlip {
+            self.brakes.reset();
         }
         ctrl.reset(theta);
         self.disarm(ctrl);

@@ -48,11 +48,14 @@ pub enum Fault {
     SoftLimit,
     /// A motor's I²t thermal state reached its limit.
     Overload,
+    /// A joint moved while its holding brake was engaged (`crate::brake`): the brake does
+    /// not hold.
+    BrakeSlip,
 }
 
 impl Fault {
     /// Every fault, in the order of their stable numbers (1, 2, …).
-    pub const ALL: [Fault; 17] = [
+    pub const ALL: [Fault; 18] = [
         Self::NonFinite,
         Self::OutOfRange,
         Self::Stale,
@@ -70,6 +73,7 @@ impl Fault {
         Self::Overspeed,
         Self::SoftLimit,
         Self::Overload,
+        Self::BrakeSlip,
     ];
 
     /// The fault of stable number `code` (`fault as u8`, what the command link reports).
@@ -110,6 +114,7 @@ impl Fault {
             Self::Overspeed => "overspeed",
             Self::SoftLimit => "joint at the end of its range",
             Self::Overload => "motor overload (I2t)",
+            Self::BrakeSlip => "holding brake slip (a joint moved while braked)",
         }
     }
 }

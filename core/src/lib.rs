@@ -29,6 +29,7 @@
     clippy::indexing_slicing
 )]
 
+pub mod brake;
 pub mod control;
 pub mod controller;
 pub mod drive;

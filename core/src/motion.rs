@@ -131,6 +131,12 @@ pub struct MotionLimits<T> {
     pub range_margin: T,
     /// The motors' thermal model.
     pub thermal: Thermal<T>,
+    /// The holding brakes' watch (`crate::brake`): how far a joint may move once its brake
+    /// has settled [rad]; 0 on an arm without brakes (no watch).
+    pub brake_travel: T,
+    /// The holding brakes' watch: motor periods from the brake output's engagement to the
+    /// held pose (the brake's grip and the stop it makes).
+    pub brake_settle_periods: u32,
 }
 
 impl<T: Real> MotionLimits<T> {
@@ -146,7 +152,8 @@ impl<T: Real> MotionLimits<T> {
     /// soft limits at the sensors'
     /// range (θ1 ±π, θ2 ±2.8 rad) with a 0.02 rad margin beyond the stopping distance at
     /// 10 rad/s²; motors rated 4 N·m continuous with a 20 s winding time constant, derating from
-    /// 60 % of the rating's heat to the continuous torque at 90 %, faulting at 95 %.
+    /// 60 % of the rating's heat to the continuous torque at 90 %, faulting at 95 %; holding
+    /// brakes that settle within 0.2 s and then hold each joint within 0.02 rad (52 counts).
     pub fn default_for(motor_hz: u32) -> Self {
         // The windows in periods, a few samples whatever the rate. At the QEMU board's 100 Hz
         // 10 ms is one period, and one noisy speed estimate on the circle tripped the runaway
@@ -176,6 +183,8 @@ impl<T: Real> MotionLimits<T> {
                 floor: T::c(0.9),
                 trip: T::c(0.95),
             },
+            brake_travel: T::c(0.02),
+            brake_settle_periods: periods(0.2, 2),
         }
     }
 }

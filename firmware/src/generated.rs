@@ -146,6 +146,8 @@ pub const HARDWARE: BoardConfig = BoardConfig {
             floor: 9e-1,
             trip: 9.5e-1,
         },
+        brake_travel: 2e-2,
+        brake_settle_periods: 200,
     },
     moves: MoveLimits {
         speed_max: Vector2::new(3e0, 3e0),
@@ -170,7 +172,7 @@ pub const HARDWARE: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`HARDWARE`], the handshake's `params_hash`.
-pub const HARDWARE_HASH: u32 = 0xe5ad57ee;
+pub const HARDWARE_HASH: u32 = 0x33c8d54e;
 
 /// The rate law's `k_c` ceiling by filter corner on the QEMU board (`[f_c [Hz], k_c,max [s]]`,
 /// `flexarm_core::tuning::RateCeiling`; `firmware_params::rate_ceilings`).
@@ -232,6 +234,8 @@ pub const QEMU: BoardConfig = BoardConfig {
             floor: 9e-1,
             trip: 9.5e-1,
         },
+        brake_travel: 2e-2,
+        brake_settle_periods: 20,
     },
     moves: MoveLimits {
         speed_max: Vector2::new(3e0, 3e0),
@@ -256,4 +260,4 @@ pub const QEMU: BoardConfig = BoardConfig {
     },
 };
 /// `BoardConfig::hash` of [`QEMU`], the handshake's `params_hash`.
-pub const QEMU_HASH: u32 = 0x7c85898f;
+pub const QEMU_HASH: u32 = 0x7e85296b;

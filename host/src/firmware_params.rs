@@ -638,6 +638,8 @@ fn config_literal(c: &BoardConfig, gain: &str, name: &str) -> String {
             floor: {floor},
             trip: {trip},
         }},
+        brake_travel: {brake_travel},
+        brake_settle_periods: {brake_settle_periods},
     }},
     moves: MoveLimits {{
         speed_max: {speed_max},
@@ -699,6 +701,8 @@ fn config_literal(c: &BoardConfig, gain: &str, name: &str) -> String {
         derate = f(t.derate),
         floor = f(t.floor),
         trip = f(t.trip),
+        brake_travel = f(m.brake_travel),
+        brake_settle_periods = m.brake_settle_periods,
         speed_max = v2(mv.speed_max),
         accel_max = v2(mv.accel_max),
         theta_max = v2(mv.theta_max),

@@ -516,7 +516,12 @@ impl SimConfig {
         c.piezo_law = PiezoLawKind::Rate;
         c.film_static = model_film_static(&c.arm, &c.patch);
         c.limits = self.limits;
-        c.motion = MotionLimits::default_for(motor_hz);
+        c.motion = MotionLimits {
+            // The host's plants have no holding brakes (`PlantBoard::brake_damping` is 0: the
+            // joints coast on their friction when the amplifiers are cut), so no brake watch.
+            brake_travel: 0.0,
+            ..MotionLimits::default_for(motor_hz)
+        };
         c.piezo_hz = piezo_hz;
         c.motor_divider = divider;
         c.print_every = (motor_hz / 10).max(1);

@@ -351,7 +351,7 @@ impl BoardConfig {
         x(c.range_margin);
         let t = &c.thermal;
         v2(&mut x, &t.continuous);
-        for v in [t.time_constant, t.derate, t.floor, t.trip] {
+        for v in [t.time_constant, t.derate, t.floor, t.trip, c.brake_travel] {
             x(v);
         }
         let mv = &self.moves;
@@ -368,6 +368,7 @@ impl BoardConfig {
             self.board as u32,
             self.law as u32,
             c.runaway_periods,
+            c.brake_settle_periods,
             self.piezo_hz,
             self.motor_divider,
             self.print_every,

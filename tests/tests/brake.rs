@@ -7,7 +7,8 @@
 //! it is engaged. The runs walk every path that cuts the amplifiers: boot, disarm, the link's
 //! `Estop`, a category-0 motion fault, a category-1 fault at the end of its stop, a fault the
 //! supervisor latches between periods, a failed homing search; the link's status and telemetry
-//! report the output. And the coast after a cut, with the brake and with it stuck released.
+//! report the output. And the coast after a cut, with the brake and with it stuck released, and
+//! the brakes' watch that latches `BrakeSlip` (`flexarm_core::brake`).
 
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 
@@ -278,4 +279,83 @@ fn the_simulated_arm_coasts_on_without_its_brake() {
     );
     assert!(coast[0] < 0.05, "{coast:?}");
     assert!(coast[1] > 0.5, "{coast:?}");
+}
+
+/// Periods from now until `fault` latches (at most `seconds`), and the simulated arm's joints'
+/// travel since now, the larger of the two [rad].
+fn until(rig: &mut Rig<TestArm>, fault: Fault, seconds: f32) -> (Option<usize>, f32) {
+    let q = |rig: &Rig<TestArm>| rig.board.sim.arm.x.q.xy();
+    let at = q(rig);
+    for k in 1..=(seconds * 1000.0).round() as usize {
+        period(rig);
+        if rig.control.ctrl.fault() == Some(fault) {
+            return (Some(k), (q(rig) - at).abs().max());
+        }
+    }
+    (None, (q(rig) - at).abs().max())
+}
+
+/// The brakes' watch (`flexarm_core::brake`): an Estop in the middle of the move (0.67 rad/s),
+/// the brake stuck released: the drive latches `BrakeSlip` once the brake should have settled
+/// (0.2 s) and the joint has gone on 0.02 rad past it, within 0.25 s of the cut; `arm` is
+/// refused until it is cleared, and a brake still stuck trips it again after the clear. A
+/// brake that holds: nothing in 3 s, after the Estop and after the clear.
+#[test]
+fn a_brake_that_does_not_hold_latches_brake_slip() {
+    for stuck in [false, true] {
+        let mut rig = bench(Injection::None);
+        rig.board.sim.brake_stuck_released = stuck;
+        rig.arm().unwrap();
+        rig.start(&trapezoid()).unwrap();
+        run(&mut rig, 1.0);
+        assert_eq!(rig.answer(Command::Estop), Reply::Done);
+        let (seen, travel) = until(&mut rig, Fault::BrakeSlip, 3.0);
+        println!(
+            "Estop at 0.67 rad/s, brake stuck released {stuck}: BrakeSlip after {seen:?} ms, the joints {travel:.4} rad on"
+        );
+        if !stuck {
+            assert_eq!(seen, None);
+            assert_eq!(rig.control.ctrl.fault(), None);
+            continue;
+        }
+        let ms = seen.expect("latched");
+        assert!((200..=250).contains(&ms), "{ms} ms");
+        assert_eq!(rig.arm(), Err(flexarm_core::drive::Refused::Faulted));
+        assert_eq!(
+            rig.answer(Command::Clear),
+            Reply::Cleared(Fault::BrakeSlip as u8)
+        );
+        let (again, _) = until(&mut rig, Fault::BrakeSlip, 1.0);
+        assert!(again.is_some(), "the brake still does not hold");
+        rig.board.sim.brake_stuck_released = false;
+        assert_eq!(
+            rig.answer(Command::Clear),
+            Reply::Cleared(Fault::BrakeSlip as u8)
+        );
+        assert_eq!(until(&mut rig, Fault::BrakeSlip, 3.0).0, None, "repaired");
+        rig.arm().unwrap();
+    }
+}
+
+/// A category-0 cut by another fault (the supervisor's `Overrun`) with the brake stuck
+/// released: the joints coast on under the first fault, which stays the one latched; once it
+/// is cleared the brake's fault latches in the next period.
+#[test]
+fn a_brake_slip_under_another_fault_latches_once_that_one_is_cleared() {
+    let mut rig = bench(Injection::None);
+    rig.board.sim.brake_stuck_released = true;
+    rig.arm().unwrap();
+    rig.start(&trapezoid()).unwrap();
+    run(&mut rig, 1.0);
+    rig.control.ctrl.trip(Fault::Overrun);
+    let (seen, travel) = until(&mut rig, Fault::BrakeSlip, 1.0);
+    assert_eq!(seen, None);
+    assert!(travel > 0.3, "coasting: {travel} rad");
+    assert_eq!(rig.control.ctrl.fault(), Some(Fault::Overrun));
+    assert_eq!(
+        rig.answer(Command::Clear),
+        Reply::Cleared(Fault::Overrun as u8)
+    );
+    period(&mut rig);
+    assert_eq!(rig.control.ctrl.fault(), Some(Fault::BrakeSlip));
 }
