@@ -257,6 +257,10 @@ mod app {
             {
                 sim.index = [0.5, 2.0];
             }
+            #[cfg(feature = "inject-brake-stuck")]
+            {
+                sim.brake_stuck_released = true;
+            }
             sim
         });
         #[cfg(feature = "hw")]
@@ -746,6 +750,11 @@ mod app {
         if cx.local.move_clock.elapsed(p.tick) == 3 * MOTOR_HZ {
             defmt::warn!("injecting a stalled piezo loop (TIM2 masked) at t = 3 s");
             cortex_m::peripheral::NVIC::mask(stm32f4::stm32f405::Interrupt::TIM2);
+        }
+        #[cfg(feature = "inject-brake-stuck")]
+        if cx.local.move_clock.elapsed(p.tick) == MOTOR_HZ {
+            defmt::warn!("injecting a disarm at t = 1 s mid-move, the brake stuck released");
+            (&mut cx.shared.control, &mut cx.shared.drive).lock(|c, d| d.disarm(&mut c.ctrl));
         }
         #[cfg(feature = "inject-overrun")]
         if cx.local.move_clock.elapsed(p.tick) == MOTOR_HZ {

@@ -23,6 +23,8 @@ const EXPECTED_FAULT: Option<Fault> = if cfg!(feature = "inject-nan") {
     Some(Fault::Runaway)
 } else if cfg!(feature = "inject-frozen-encoder") {
     Some(Fault::FrozenEncoder)
+} else if cfg!(feature = "inject-brake-stuck") {
+    Some(Fault::BrakeSlip)
 } else {
     None
 };
