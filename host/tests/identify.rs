@@ -624,7 +624,10 @@ fn the_modes_experiment_ends_at_rest() {
         let rest = REST.min(0.1 * seconds);
         let &(last, v) = ex.bias.last().unwrap();
         assert_eq!(v, 0.0, "{seconds} s");
-        assert!(last <= seconds - rest + 0.5, "{seconds} s: the rest from {last} s");
+        assert!(
+            last <= seconds - rest + 0.5,
+            "{seconds} s: the rest from {last} s"
+        );
         let (start, _) = ex.moves.last().unwrap();
         assert!(*start < last, "{seconds} s: a move starts in the rest");
         // Steps there were, at the plan's amplitude.

@@ -256,6 +256,17 @@ fn telemetry_carries_the_brake() {
     assert_eq!(seen, [true, true], "both states streamed");
 }
 
+/// The link's `Estop` one second into the move (0.67 rad/s), the brake stuck released or not.
+fn estop_mid_move(stuck: bool) -> Rig<TestArm> {
+    let mut rig = bench(Injection::None);
+    rig.board.sim.brake_stuck_released = stuck;
+    rig.arm().unwrap();
+    rig.start(&trapezoid()).unwrap();
+    run(&mut rig, 1.0);
+    assert_eq!(rig.answer(Command::Estop), Reply::Done);
+    rig
+}
+
 /// The coast after a category-0 cut at speed on the simulated arm (the core's frictionless
 /// model): with the brake (50 ms time constant) the joints stop within 0.05 rad; with the brake
 /// stuck released they coast on at the cut's speed.
@@ -263,12 +274,7 @@ fn telemetry_carries_the_brake() {
 fn the_simulated_arm_coasts_on_without_its_brake() {
     let mut coast = [0.0f32; 2];
     for (i, stuck) in [false, true].into_iter().enumerate() {
-        let mut rig = bench(Injection::None);
-        rig.board.sim.brake_stuck_released = stuck;
-        rig.arm().unwrap();
-        rig.start(&trapezoid()).unwrap();
-        run(&mut rig, 1.0);
-        assert_eq!(rig.answer(Command::Estop), Reply::Done);
+        let mut rig = estop_mid_move(stuck);
         let at = rig.board.sim.arm.x.q.xy();
         assert!(run(&mut rig, 1.0), "engaged (stuck released: {stuck})");
         coast[i] = (rig.board.sim.arm.x.q.xy() - at).abs().max();
@@ -303,12 +309,7 @@ fn until(rig: &mut Rig<TestArm>, fault: Fault, seconds: f32) -> (Option<usize>, 
 #[test]
 fn a_brake_that_does_not_hold_latches_brake_slip() {
     for stuck in [false, true] {
-        let mut rig = bench(Injection::None);
-        rig.board.sim.brake_stuck_released = stuck;
-        rig.arm().unwrap();
-        rig.start(&trapezoid()).unwrap();
-        run(&mut rig, 1.0);
-        assert_eq!(rig.answer(Command::Estop), Reply::Done);
+        let mut rig = estop_mid_move(stuck);
         let (seen, travel) = until(&mut rig, Fault::BrakeSlip, 3.0);
         println!(
             "Estop at 0.67 rad/s, brake stuck released {stuck}: BrakeSlip after {seen:?} ms, the joints {travel:.4} rad on"
