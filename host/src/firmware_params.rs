@@ -237,8 +237,9 @@ pub const GUARD: f64 = 0.03;
 /// Rows at corners spaced evenly in log from 1 Hz to the Nyquist rate, and at the shipped
 /// corner; each the least `B(f) f` over [`SAMPLES`] corners spaced evenly in log between the
 /// previous row's corner and its own (the first row's from a quarter of its corner), `B` half
-/// the [`gain_margin`] at `k_c = 1 s`, less [`GUARD`] for what varies between the samples. A loop stable at every gain (none that the bisection finds
-/// below 1e6) is held to nothing there; one the eigen-solver cannot settle is allowed nothing.
+/// the [`gain_margin`] at `k_c = 1 s`, less [`GUARD`] for what varies between the samples. A
+/// loop stable at every gain (none that the bisection finds below 1e6) is held to nothing
+/// there; one the eigen-solver cannot settle is allowed nothing.
 pub fn rate_ceilings(
     arm: &ArmParams<f64>,
     patch: &PiezoPatch<f64>,
