@@ -10,7 +10,7 @@
 //! lining, or an arm pushed harder than its brake's torque. The watch then stays tripped until
 //! [`BrakeWatch::reset`], and the drive latches [`crate::Fault::BrakeSlip`] as soon as no other
 //! fault is latched: after a category-0 cut the coast is the case that matters, and the
-//! operator sees the brake's fault once the first one is cleared.
+//! operator sees the brake's fault as the first one is cleared (`Drive::clear` latches it).
 //!
 //! The reading is the encoders' own (not the arm's frame), so homing does not move the held
 //! pose. A board whose joints have no brakes sets `brake_travel` to 0: no watch.

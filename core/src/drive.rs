@@ -1335,6 +1335,11 @@ impl<T: Real> Drive<T> {
         }
         ctrl.reset(theta);
         self.disarm(ctrl);
+        // A brake seen slipping under the fault just cleared: its own fault at once, so no
+        // `arm` can come between this clear and the next motor period's watch.
+        if self.brakes.slipped() {
+            ctrl.trip(Fault::BrakeSlip);
+        }
         Ok(fault)
     }
 }

@@ -340,7 +340,7 @@ fn a_brake_that_does_not_hold_latches_brake_slip() {
 
 /// A category-0 cut by another fault (the supervisor's `Overrun`) with the brake stuck
 /// released: the joints coast on under the first fault, which stays the one latched; once it
-/// is cleared the brake's fault latches in the next period.
+/// is cleared the brake's fault latches at once, by the clear itself.
 #[test]
 fn a_brake_slip_under_another_fault_latches_once_that_one_is_cleared() {
     let mut rig = bench(Injection::None);
@@ -357,6 +357,9 @@ fn a_brake_slip_under_another_fault_latches_once_that_one_is_cleared() {
         rig.answer(Command::Clear),
         Reply::Cleared(Fault::Overrun as u8)
     );
+    // Latched by the clear itself: no `arm` fits between.
+    assert_eq!(rig.control.ctrl.fault(), Some(Fault::BrakeSlip));
+    assert_eq!(rig.arm(), Err(flexarm_core::drive::Refused::Faulted));
     period(&mut rig);
     assert_eq!(rig.control.ctrl.fault(), Some(Fault::BrakeSlip));
 }
