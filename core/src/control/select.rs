@@ -1,9 +1,10 @@
 //! Which piezo law the controller runs (issue 35): the paper's rate feedback (Eq. 17), integral
 //! resonant control ([`super::irc`]), positive position feedback ([`super::ppf`]), or none
-//! (0 V). Rate feedback with the feedthrough cancelled ([`super::cancel`]) is not among them:
-//! the spillover study finds its factor 1.4–1.6 at bond factors of 0.5 and more
-//! (`docs/results.md`), below the goal of 2, and it does not fit the firmware's flash budget
-//! beside the two that meet it or come close.
+//! (0 V). Rate feedback with the feedthrough cancelled ([`super::cancel`]) is a study law, not a
+//! board's: the spillover study finds its factor 1.4–1.6 at bond factors of 0.5 and more
+//! (`docs/results.md`), below the goal of 2, and its margin rests on `F̂` and the actuator
+//! path's gain being right (a gain `g` leaves `(g − 1) F` in the loop), which nothing on the
+//! board checks. A board offers only laws whose stability the study supports.
 //!
 //! A board boots with one ([`PiezoSetup::law`], its configuration's `piezo_law`) and a host
 //! switches over the link (`set piezo_law ppf`, `flexarm_core::tuning`). The laws beside the
