@@ -454,7 +454,7 @@ pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, Ident
                 Some(s) => (s / dt).round() as usize,
                 None => ((RESOLVE_PERIODS / low) / dt).ceil() as usize,
             };
-            let segments = (2 * n / need.max(1)).saturating_sub(1);
+            let segments = spectra::welch_segments(n, need);
             if set.segment.is_some() || segments >= spectra::COHERENCE_AVERAGES_PER_INPUT * m {
                 let plan = Plan::Welch { len: need };
                 let sp = take(&plan)?;
@@ -607,9 +607,16 @@ const MIN_OWN_MOTION: f64 = 0.1;
 
 /// Welch's segment for `n` samples and `m` inputs: the longest that still gives
 /// `10 m` averages with half overlap, so that the coherence means something (`spectra`).
+/// (Counted as [`spectra::welch_segments`] counts them, down from just above `2n/(10m + 1)`:
+/// that length alone falls one segment short of `10 m` at one record length in twenty, and the
+/// coherence it was for is then refused.)
 fn welch_len(n: usize, m: usize) -> usize {
     let want = spectra::COHERENCE_AVERAGES_PER_INPUT * m.max(1);
-    (2 * n / (want + 1)).max(16)
+    let mut len = (2 * n / (want + 1) + 2).max(16);
+    while len > 16 && spectra::welch_segments(n, len) < want {
+        len -= 1;
+    }
+    len
 }
 
 /// The share of the base's power the patch explains, `Σ |G_12|²/G_11 / Σ G_22` over the
@@ -929,4 +936,30 @@ fn finish(
         order: sel.chosen,
         notes,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Welch's segment leaves the probe its `10 m` averages at every record length (one
+    /// length in twenty fell one short before it counted them as `spectra::welch` does).
+    #[test]
+    fn welch_segments_give_the_averages_asked() {
+        for m in 1..=2 {
+            let want = spectra::COHERENCE_AVERAGES_PER_INPUT * m;
+            for n in 400..30_000 {
+                let len = welch_len(n, m);
+                assert!(
+                    spectra::welch_segments(n, len) >= want,
+                    "n {n}, m {m}: {len}"
+                );
+                // The longest that does: one sample more falls short.
+                assert!(
+                    spectra::welch_segments(n, len + 1) < want || len == 16,
+                    "n {n}, m {m}"
+                );
+            }
+        }
+    }
 }

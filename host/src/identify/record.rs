@@ -58,6 +58,18 @@ impl ModesRecord {
         self.v_f.len() as f64 * self.dt
     }
 
+    /// The record's first `n` samples.
+    pub fn head(&self, n: usize) -> Self {
+        let cut = |x: &Vec<f64>| x[..n.min(x.len())].to_vec();
+        Self {
+            v_a: cut(&self.v_a),
+            v_f: cut(&self.v_f),
+            theta: [cut(&self.theta[0]), cut(&self.theta[1])],
+            tau: [cut(&self.tau[0]), cut(&self.tau[1])],
+            ..*self
+        }
+    }
+
     /// The base's angle `α = θ1 + θ2` [rad].
     pub fn alpha(&self) -> Vec<f64> {
         self.theta[0]

@@ -301,6 +301,16 @@ fn hann(n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// How many of Welch's half-overlapping segments of `len` samples [`welch`] takes from a
+/// record of `n` samples (it differences the record first: `n − 1` of them).
+pub fn welch_segments(n: usize, len: usize) -> usize {
+    let hop = (len / 2).max(1);
+    match n.checked_sub(1) {
+        Some(d) if len > 0 && d >= len => (d - len) / hop + 1,
+        _ => 0,
+    }
+}
+
 /// Welch's spectra of `y` and `inputs` (sampled every `dt` [s], each first differenced) from
 /// segments of `len` samples overlapping by half, on the lines inside `band` [Hz] (module
 /// docs). An error when the record holds fewer than two segments.
