@@ -20,11 +20,10 @@ fn run(name: &str, kinds: &[Kind]) -> ArmResult {
 /// The model-grade kinds, on every arm.
 const KINDS: [Kind; 2] = [Kind::ChirpNoise, Kind::Random];
 
-/// The inertias' bound: the 5 %, and on the slow arm 7 % for `S`. The model step's
-/// shapes are a uniform link's (the geometry gives no patch section); on the slow arm's 1 mm
-/// link the patch's layers are a large share of the link's mass and stiffness over 0.35 m, the
-/// shapes' couplings are that far off, and what the link's modes leave in the torques biases
-/// `S` (+5.8 %; docs/identification.md).
+/// The inertias' bound: the 5 %, and on the slow arm 7 % for `S`, which comes out
+/// +5.4 % (six of its standard deviations) with the patch's layers in the geometry and +5.8 %
+/// without: a bias on the arm whose 0.5 Hz first mode the swing excites most, not yet
+/// explained (docs/identification.md).
 fn inertia_bound(arm: &str, n: &str) -> f64 {
     if arm == "slow" && n == "S" {
         0.07

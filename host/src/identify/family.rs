@@ -301,6 +301,10 @@ impl FamilyArm {
             .spec
             .link(&self.rigid, &self.patch)
             .map_err(|e| e.to_string())?;
+        // The lab knows its layers: the truth link's stack at its thickness.
+        let mut layers = flexarm_beam::section::Layers::default();
+        layers.material.t_b = self.spec.thickness;
+        let (bare, patched) = (layers.bare(), layers.patched());
         Ok(Geometry {
             a1: self.rigid.a1,
             a2: self.rigid.a2,
@@ -308,6 +312,8 @@ impl FamilyArm {
             tip_inertia: self.spec.tip_inertia,
             x_a: self.patch.x_a,
             l_a: self.patch.l_a,
+            mass_ratio: patched.rho_a / bare.rho_a,
+            stiffness_ratio: patched.ei / bare.ei,
             k_a: c.k_a,
             k_s: c.k_s,
             torque_limit: self.bench()?.limits.tau_max.cast::<f64>().into(),

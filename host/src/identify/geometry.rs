@@ -13,6 +13,8 @@
 //! l_a = 0.35        # m, its length
 //! k_a = 1.0e-3      # N m/V, the actuator's moment per volt (its data sheet)
 //! k_s = 1.0e3       # V/rad, the film's volts per radian (its data sheet)
+//! mass_ratio = 1.0       # the patched section's mass per length over the bare link's
+//! stiffness_ratio = 1.0  # its bending stiffness EI over the bare link's
 //! [board]
 //! film_range = 10.0                   # V, the film ADC's ±range
 //! amplifier_window = [-200.0, 200.0]  # V
@@ -20,12 +22,17 @@
 //! ```
 //!
 //! Every key is optional; the defaults are the paper's arm and patch (`ArmParams::default`,
-//! `PiezoPatch::paper`) on the project's board. The link's mode shapes follow from it: a
-//! uniform link of the mass the inertias leave it (`S = a1 m2 a2/2` counts the payload twice
-//! over the link's own mass: `m2 = m_link + 2 M`) clamped at joint 2, with the payload as a
-//! tip body. What is assumed, said plainly: the link is uniform between joint 2 and the tip
-//! (the patch's own mass and stiffness are left out of the shapes, and a link that tapers is
-//! not this one); the shapes' frequencies are not used, the identified ones are.
+//! `PiezoPatch::paper`) on the project's board. The link's mode shapes follow from it: the
+//! link clamped at joint 2 with the payload as a tip body, bare but for the patch's stretch
+//! `[x_a, x_a + l_a]`, where the ceramic and the film bonded to it multiply its mass per length
+//! by `mass_ratio` and its bending stiffness by `stiffness_ratio` (a lab computes both from its
+//! layers' thicknesses, moduli and densities: `flexarm_beam::section::Layers` does it for the
+//! paper's stack; on its 2.5 mm link 1.92 and 2.29, on a 1 mm link 3.30 and 5.80). The bare
+//! link's mass per length is what the inertia fit's `S` leaves it: `S/a1` is the link's first
+//! moment about joint 2 with the payload's (`M a2`). The defaults (both 1) leave the layers
+//! out, a uniform link. What is assumed, said plainly: the link is uniform outside the patch
+//! (a link that tapers is not this one); the shapes' frequencies are not used, the identified
+//! ones are.
 
 use flexarm_beam::segmented::{Mode, Segment, SegmentedBeam};
 use flexarm_core::control::piezo::PiezoPatch;
@@ -49,6 +56,10 @@ pub struct Geometry {
     pub x_a: f64,
     /// Its length `l_a` [m].
     pub l_a: f64,
+    /// The patched section's mass per length over the bare link's [-].
+    pub mass_ratio: f64,
+    /// The patched section's bending stiffness over the bare link's [-].
+    pub stiffness_ratio: f64,
     /// The actuator's moment per volt `k_a` [N·m/V].
     pub k_a: f64,
     /// The film's volts per radian `k_s` [V/rad].
@@ -74,6 +85,8 @@ impl Default for Geometry {
             tip_inertia: 0.0,
             x_a: p.x_a,
             l_a: p.l_a,
+            mass_ratio: 1.0,
+            stiffness_ratio: 1.0,
             k_a: p.k_a,
             k_s: p.k_s,
             film_range: 10.0,
@@ -115,6 +128,8 @@ struct LinkTable {
 struct PatchTable {
     x_a: Option<f64>,
     l_a: Option<f64>,
+    mass_ratio: Option<f64>,
+    stiffness_ratio: Option<f64>,
     k_a: Option<f64>,
     k_s: Option<f64>,
 }
@@ -143,6 +158,8 @@ impl Geometry {
             tip_inertia: f.link.tip_inertia.unwrap_or(d.tip_inertia),
             x_a: f.patch.x_a.unwrap_or(d.x_a),
             l_a: f.patch.l_a.unwrap_or(d.l_a),
+            mass_ratio: f.patch.mass_ratio.unwrap_or(d.mass_ratio),
+            stiffness_ratio: f.patch.stiffness_ratio.unwrap_or(d.stiffness_ratio),
             k_a: f.patch.k_a.unwrap_or(d.k_a),
             k_s: f.patch.k_s.unwrap_or(d.k_s),
             film_range: f.board.film_range.unwrap_or(d.film_range),
@@ -173,6 +190,8 @@ impl Geometry {
         within("link.tip_inertia", self.tip_inertia, 0.0, 1e3, "kg m^2")?;
         within("patch.x_a", self.x_a, 0.0, self.a2, "m")?;
         within("patch.l_a", self.l_a, 1e-4, self.a2 - self.x_a, "m")?;
+        within("patch.mass_ratio", self.mass_ratio, 0.1, 1e3, "")?;
+        within("patch.stiffness_ratio", self.stiffness_ratio, 0.1, 1e4, "")?;
         within("patch.k_a", self.k_a, 1e-12, 1e6, "N m/V")?;
         within("patch.k_s", self.k_s, 1e-12, 1e12, "V/rad")?;
         within("board.film_range", self.film_range, 1e-6, 1e6, "V")?;
@@ -215,8 +234,9 @@ impl Geometry {
         }
     }
 
-    /// The first `count` modes of a uniform link of mass `m_link` [kg] over `a2`, clamped at
-    /// joint 2, with the payload as a tip body (module docs); the first one near `omega1`
+    /// The first `count` modes of the link clamped at joint 2, the patched stretch's ratios
+    /// and the payload as a tip body (module docs), whose own first moment about joint 2 is a
+    /// uniform link's of mass `m_link` [kg] (`m_link a2/2`); the first one near `omega1`
     /// [rad/s] (the shapes do not depend on it).
     pub fn shapes(
         &self,
@@ -231,20 +251,25 @@ impl Geometry {
                 self.tip_mass
             )));
         }
-        let rho_a = m_link / self.a2;
-        // A uniform cantilever's first mode: ω1 = 1.875² √(EI/(ρA L⁴)); a tip body lowers it,
-        // and the root finder brackets from there.
-        let ei = rho_a * self.a2.powi(4) * (omega1 / 3.516).powi(2);
-        let beam = SegmentedBeam::new(
-            &[Segment {
-                length: self.a2,
-                ei,
-                rho_a,
-            }],
-            self.tip_mass,
-            self.tip_inertia,
-        )
-        .map_err(|e| bad(format!("the link's shapes: {e}")))?;
+        // The bare link's ρA from the first moment: ρA (a2²/2 + (r_m − 1)(x_a l_a + l_a²/2)).
+        let (x_a, l_a, l) = (self.x_a, self.l_a, self.a2);
+        let moment = l * l / 2.0 + (self.mass_ratio - 1.0) * (x_a * l_a + l_a * l_a / 2.0);
+        let rho_a = m_link * l / 2.0 / moment;
+        // A uniform cantilever's first mode: ω1 = 1.875² √(EI/(ρA L⁴)); a tip body and the
+        // patch move it, and the root finder brackets from there.
+        let ei = rho_a * l.powi(4) * (omega1 / 3.516).powi(2);
+        let bare = |length: f64| Segment { length, ei, rho_a };
+        let patched = Segment {
+            length: l_a,
+            ei: ei * self.stiffness_ratio,
+            rho_a: rho_a * self.mass_ratio,
+        };
+        let segments: Vec<Segment> = [bare(x_a), patched, bare(l - x_a - l_a)]
+            .into_iter()
+            .filter(|s| s.length > 1e-9 * l)
+            .collect();
+        let beam = SegmentedBeam::new(&segments, self.tip_mass, self.tip_inertia)
+            .map_err(|e| bad(format!("the link's shapes: {e}")))?;
         beam.modes(count)
             .map_err(|e| bad(format!("the link's shapes: {e}")))
     }

@@ -10,9 +10,10 @@
 //! - `|Δφ'_j| = √(g_j / (k_a k_s))` from the piezo→film products, with `k_a` and `k_s` the
 //!   geometry's (their data sheets: only the product per mode is measured); the sign the
 //!   shapes give.
-//! - The mode shapes' integrals `v_j`, `w_j`, `φ_j(a2)`: of a uniform link of the mass the
-//!   inertias leave it, with the geometry's payload as a tip body
-//!   ([`super::geometry::Geometry::shapes`]): one film cannot measure shapes, and the
+//! - The mode shapes' integrals `v_j`, `w_j`, `φ_j(a2)`: of the link with the first moment
+//!   the inertias leave it, its patched stretch as the geometry describes it and the
+//!   geometry's payload as a tip body ([`super::geometry::Geometry::shapes`]): one film
+//!   cannot measure shapes, and the
 //!   controller's law and observer need them. What the film sees of the base
 //!   (`c_j = k_s Δφ'_j w_j`, in the modes report) bears on them; the model does not use it.
 //! - The joints' friction ([`super::friction`]) goes to the simulator's plant description;
@@ -136,7 +137,15 @@ pub fn identified_model(
         tip: Vector2::new(i1.2, i2.2),
     };
     let mut notes = vec![format!(
-        "the shapes of a uniform link of {m_link:.4} kg over {l} m with a tip body of {mt} kg and {jt} kg·m² (the geometry's payload); the patch's own mass and stiffness are not in them"
+        "the shapes of a link over {l} m with the first moment of a uniform {m_link:.4} kg, a tip body of {mt} kg and {jt} kg·m² (the geometry's payload), {}",
+        if geometry.mass_ratio == 1.0 && geometry.stiffness_ratio == 1.0 {
+            "uniform: the patch's own mass and stiffness are not in them (the geometry's `patch.mass_ratio` and `patch.stiffness_ratio` put them in)".to_string()
+        } else {
+            format!(
+                "the patched stretch {} times the bare link's mass per length and {} times its stiffness (the geometry's)",
+                geometry.mass_ratio, geometry.stiffness_ratio
+            )
+        }
     )];
     let mut slope = Vector2::zeros();
     for (j, (k, m)) in fit.kept.iter().zip([m1, m2]).enumerate() {
@@ -194,7 +203,7 @@ pub fn model_fragment(arm: &ArmParams<f64>, p: &PiezoPatch<f64>, k_c: f64) -> St
          omega = {}   # rad/s\n\
          zeta = {}\n\
          slope_diff = {}\n\
-         mass_integral = {}   # uniform link with the geometry's payload\n\
+         mass_integral = {}   # the geometry's link, patched stretch and payload\n\
          moment_integral = {}\n\
          tip = {}\n",
         arm.a1,
