@@ -356,3 +356,54 @@ fn decays_of_every_tap() {
         }
     }
 }
+
+/// Where the slow arm's `S` bias is not (a diagnosis: `cargo test -p flexarm-host --test
+/// identify_family the_slow_arms_s_bias -- --nocapture`): fitted with the truth link's own six modes (no identification, no shapes), its
+/// swing still gives `S` +5.50 %, and +5.89 % with ideal drives (no friction, no current
+/// loop); the bias shrinks with the swing's reach (+4.01 % at half of it, +3.27 % at a
+/// quarter), so part of it grows with the motion, but not as its square. Asserted: within the
+/// family test's 7 % at every reach, and smaller at a smaller reach.
+#[test]
+fn the_slow_arms_s_bias() {
+    use flexarm_host::identify::family::{lab_record, swing};
+    use flexarm_host::identify::inertia::{FlexMode, Rigid, fit_inertia_with};
+    use flexarm_host::truth_plant::MotorSpec;
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    for ideal in [false, true] {
+        let mut arm = family().into_iter().next().unwrap();
+        if ideal {
+            arm.spec.motors = [MotorSpec::IDEAL; 2];
+        }
+        let bench = arm.bench().unwrap();
+        let (body, _) = arm.spec.link(&arm.rigid, &arm.patch).unwrap();
+        let flex: Vec<FlexMode> = (0..body.omega.len())
+            .map(|j| FlexMode {
+                omega: body.omega[j],
+                zeta: body.zeta[j],
+                v: body.v[j],
+                w: body.w[j],
+            })
+            .collect();
+        let truth = Rigid::of(&bench.arm);
+        let mut last = f64::INFINITY;
+        for reach in if ideal {
+            vec![1.0]
+        } else {
+            vec![1.0, 0.5, 0.25]
+        } {
+            let mut plan = swing(&bench, body.omega[0] / std::f64::consts::TAU);
+            if let Some(t) = plan.track.as_mut() {
+                t.reach *= reach;
+            }
+            let trace = lab_record(dir, (arm.name, "swing"), &plan, false).unwrap();
+            let fit = fit_inertia_with(&trace, bench.arm.a1, &flex).unwrap();
+            let e = fit.rigid.s / truth.s - 1.0;
+            println!(
+                "slow, ideal drives {ideal}, reach ×{reach}: S {:+.2} %",
+                e * 100.0
+            );
+            assert!(e.abs() < 0.07 && e.abs() < last, "reach ×{reach}: {e}");
+            last = e.abs();
+        }
+    }
+}
