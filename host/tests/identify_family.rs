@@ -385,7 +385,9 @@ fn the_slow_arms_s_with_its_own_modes() {
             if let Some(t) = plan.track.as_mut() {
                 t.reach *= reach;
             }
-            let trace = lab_record(dir, (arm.name, "swing"), &plan, false).unwrap();
+            // A file of its own: `slow_arm` records its swing beside it at the same time.
+            let name = format!("swing-own-modes-{ideal}-{reach}");
+            let trace = lab_record(dir, (arm.name, &name), &plan, false).unwrap();
             let fit = fit_inertia_with(&trace, bench.arm.a1, &flex).unwrap();
             let e = fit.rigid.s / truth.s - 1.0;
             println!(

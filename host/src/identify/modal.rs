@@ -329,8 +329,10 @@ fn agree(
     let usable = |f: &ModesFit| {
         let top = f.kept.iter().map(|k| f.all[k - 1].hz()).fold(0.0, f64::max)
             * (1.0 + 2.0 * order::F_TOL);
-        let mine = f.all.iter().filter(|m| m.hz() <= top);
-        mine.clone().all(|m| confirmed(m.hz()))
+        f.all
+            .iter()
+            .filter(|m| m.hz() <= top)
+            .all(|m| confirmed(m.hz()))
             && fits.iter().all(|(_, g)| {
                 g.all
                     .iter()
