@@ -55,6 +55,8 @@ struct fc_params {
     float start[2], amplitude[2], duration, ramp;
     /* Motor periods without a sample before a stale fault; 1 for Eq. 16, 0 for Eq. 7. */
     uint32_t stale_limit, robust;
+    /* The joints' integral action: K_i [1/s] and the bound on |K_i z| [rad]. */
+    float ki[2], integral_limit[2];
 };
 
 /* One state of the bench (firmware/src/bin/bench/like.rs: `CState`, repr(C)). */
@@ -84,6 +86,8 @@ struct fc_ctrl {
     /* The trapezoid: start, amplitude, duration, ramp, 1/(T - t_a), its acceleration, the
      * start of the deceleration, s at the end of the first ramp. */
     float start[2], amplitude[2], duration, ramp, rate, accel, cruise_end, s_ramp;
+    /* The integral action: K_i, the bound on |K_i z|, z [rad s]. */
+    float ki[2], integral_limit[2], z[2];
 };
 
 /* The bench keeps the controller in an opaque, aligned block of this size. */
@@ -177,6 +181,8 @@ void NAME(flexarm_c_init)(struct fc_ctrl *c, const struct fc_params *p) {
         c->theta_max[i] = p->theta_max[i];
         c->start[i] = p->start[i];
         c->amplitude[i] = p->amplitude[i];
+        c->ki[i] = p->ki[i];
+        c->integral_limit[i] = p->integral_limit[i];
     }
     c->w_sq = c->w[0] * c->w[0] + c->w[1] * c->w[1];
     for (int i = 0; i < 4; i++)
@@ -414,6 +420,22 @@ int NAME(flexarm_c_motor_step)(struct fc_ctrl *c, const struct fc_state *s, floa
         }
     }
 
+    /* The joints' integral action (core/src/control/integral.rs), when the gains have it: the
+     * law tracks th_d - K_i z, th_d' - K_i (q - th_d), th_d'' - K_i (q' - th_d'), and the
+     * period integrates the encoders' error. */
+    int integral = c->ki[0] != 0.0f || c->ki[1] != 0.0f;
+    float pending[2] = {th0 - th_d[0], th1 - th_d[1]};
+    if (integral) {
+        for (int i = 0; i < 2; i++) {
+            float k = c->ki[i];
+            float d1 = th_d1[i] - k * (q[i] - th_d[i]);
+            float d2 = th_d2[i] - k * (qd[i] - th_d1[i]);
+            th_d[i] -= k * c->z[i];
+            th_d1[i] = d1;
+            th_d2[i] = d2;
+        }
+    }
+
     /* Eq. 7, then Eq. 16's robust term through the joints. */
     float tau[2], s_delta[2];
     eq7_joints(c, &t, q, qd, th_d, th_d1, th_d2, tau, s_delta);
@@ -449,6 +471,19 @@ int NAME(flexarm_c_motor_step)(struct fc_ctrl *c, const struct fc_state *s, floa
     }
     tau[0] = saturate(tau[0], c->tau_max[0]);
     tau[1] = saturate(tau[1], c->tau_max[1]);
+    /* The integral, not while a joint's torque is at its limit pushing the way its error asks;
+     * |K_i z| within its bound. */
+    if (integral) {
+        for (int i = 0; i < 2; i++) {
+            float k = c->ki[i], e = pending[i];
+            int winding = fabs_(tau[i]) >= c->tau_max[i] && e * tau[i] < 0.0f;
+            if (k <= 0.0f || winding)
+                continue;
+            float next = c->z[i] + e * c->period, bound = c->integral_limit[i] / k;
+            next = next < -bound ? -bound : next;
+            c->z[i] = next > bound ? bound : next;
+        }
+    }
 
     /* The prediction: q'' = B^-1 (u - C q' - K q - D q') with u = (tau, C_a V_a), one
      * semi-implicit Euler step. */

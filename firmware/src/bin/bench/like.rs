@@ -92,6 +92,8 @@ struct CParams {
     ramp: f32,
     stale_limit: u32,
     robust: u32,
+    ki: Vector2<f32>,
+    integral_limit: Vector2<f32>,
 }
 
 impl CParams {
@@ -149,6 +151,8 @@ impl CParams {
             ramp: tr.profile.ramp(),
             stale_limit: 3,
             robust: u32::from(c.motor.law == flexarm_core::control::motor::MotorLaw::Robust),
+            ki: g.ki,
+            integral_limit: g.integral_limit,
         })
     }
 }
@@ -250,6 +254,8 @@ timed_call!(call_fn_controller_motor_c_o3 => flexarm_c_motor_step_o3,
 /// The C functions of one build (-O2 or -O3): its rows' names and its measured calls.
 struct CBuild {
     rows: [&'static str; 3],
+    /// The row of its motor step with the integral action (agreement only).
+    integral: &'static str,
     init: unsafe extern "C" fn(*mut CCtrl, *const CParams),
     reset: unsafe extern "C" fn(*mut CCtrl, *const Vector2<f32>),
     motor_step: unsafe extern "C" fn(*mut CCtrl, *const CState, *mut Vector2<f32>) -> u32,
@@ -265,6 +271,7 @@ const BUILDS: [CBuild; 2] = [
             "fn_piezo_step_c_o2",
             "fn_controller_motor_c_o2",
         ],
+        integral: "fn_controller_motor_c_o2 with K_i",
         init: flexarm_c_init_o2,
         reset: flexarm_c_reset_o2,
         motor_step: flexarm_c_motor_step_o2,
@@ -278,6 +285,7 @@ const BUILDS: [CBuild; 2] = [
             "fn_piezo_step_c_o3",
             "fn_controller_motor_c_o3",
         ],
+        integral: "fn_controller_motor_c_o3 with K_i",
         init: flexarm_c_init_o3,
         reset: flexarm_c_reset_o3,
         motor_step: flexarm_c_motor_step_o3,
@@ -470,6 +478,47 @@ pub fn run(
         for (row, a) in b.rows.iter().zip(&same) {
             ok &= agree(set, row, a);
         }
+    }
+    ok & integral_agrees(set, base, &first, &steady)
+}
+
+/// The integral action's path, which the paper's gains (`K_i = 0`) leave to its test: the
+/// motor step's two periods with the boards' `K_i = 5/s` on both joints (the first shifts the
+/// target, the second integrates too), Rust against each C build; agreement only.
+fn integral_agrees(
+    set: &str,
+    base: &Controller<f32>,
+    first: &[CState; N],
+    steady: &[CState; N],
+) -> bool {
+    let mut with_ki = *base;
+    with_ki.motor.gains.ki = Vector2::new(5.0, 5.0);
+    let Some(params) = CParams::of(&with_ki) else {
+        return false;
+    };
+    let mut rust = [Vector2::zeros(); N];
+    for (i, s) in first.iter().enumerate() {
+        let mut m = with_ki;
+        m.reset_observer(s.y.theta);
+        rust_motor_step(&mut m, s, &mut rust[i]);
+        rust_motor_step(&mut m, &steady[i], &mut rust[i]);
+    }
+    let mut ok = true;
+    for b in &BUILDS {
+        let mut template = CCtrl([0; 512]);
+        let mut a = Agreement { worst: 0.0 };
+        for (i, s) in first.iter().enumerate() {
+            let mut tau = Vector2::zeros();
+            // SAFETY: as in `run`.
+            unsafe {
+                (b.init)(&mut template, &params);
+                (b.reset)(&mut template, &s.y.theta);
+                (b.motor_step)(&mut template, s, &mut tau);
+                (b.motor_step)(&mut template, &steady[i], &mut tau);
+            }
+            a.add(rust[i].as_slice(), tau.as_slice());
+        }
+        ok &= agree(set, b.integral, &a);
     }
     ok
 }
