@@ -286,11 +286,54 @@ pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, Ident
     agree(whole, shorter, rec.dt)
 }
 
-/// Whether `fit` found a resonance within `2 F_TOL` of `hz` [Hz].
-fn sees(fit: &ModesFit, hz: f64) -> bool {
-    fit.all
-        .iter()
-        .any(|m| (m.hz() / hz - 1.0).abs() < 2.0 * order::F_TOL)
+/// One length's fit as [`choose`] compares it: its resonances and its highest kept mode [Hz].
+#[derive(Clone, Debug, PartialEq)]
+struct Found {
+    hz: Vec<f64>,
+    top: f64,
+}
+
+impl Found {
+    fn of(fit: &ModesFit) -> Self {
+        Self {
+            hz: fit.all.iter().map(IdentifiedMode::hz).collect(),
+            top: fit
+                .kept
+                .iter()
+                .map(|k| fit.all[k - 1].hz())
+                .fold(0.0, f64::max),
+        }
+    }
+
+    /// Whether it found a resonance within `2 F_TOL` of `hz` [Hz].
+    fn sees(&self, hz: f64) -> bool {
+        self.hz
+            .iter()
+            .any(|f| (f / hz - 1.0).abs() < 2.0 * order::F_TOL)
+    }
+}
+
+/// Whether at least two of the lengths found a resonance at `hz` [Hz].
+fn confirmed(found: &[Found], hz: f64) -> bool {
+    found.iter().filter(|f| f.sees(hz)).count() >= 2
+}
+
+/// The first length whose resonances up to its highest kept mode are all confirmed and that
+/// misses none confirmed there (module docs, "Three lengths"), if any.
+fn choose(found: &[Found]) -> Option<usize> {
+    found.iter().position(|f| {
+        let top = f.top * (1.0 + 2.0 * order::F_TOL);
+        let within = |g: &Found| -> Vec<f64> {
+            g.hz.iter()
+                .copied()
+                .filter(|h| *h <= top && confirmed(found, *h))
+                .collect()
+        };
+        f.hz.iter()
+            .filter(|h| **h <= top)
+            .all(|h| confirmed(found, *h))
+            && found.iter().all(|g| within(g).iter().all(|h| f.sees(*h)))
+    })
 }
 
 /// The fit of the record's three lengths (the whole record's `whole`, then its copies less
@@ -307,10 +350,9 @@ fn agree(
             .into_iter()
             .filter_map(|(d, f)| f.ok().map(|f| (d, f))),
     );
-    let list = |f: &ModesFit| {
-        f.all
-            .iter()
-            .map(|m| format!("{:.3}", m.hz()))
+    let list = |f: &Found| {
+        f.hz.iter()
+            .map(|h| format!("{h:.3}"))
             .collect::<Vec<_>>()
             .join(", ")
     };
@@ -324,29 +366,15 @@ fn agree(
             .push("its shorter copies gave no fit: the modes are not checked against them".into());
         return Ok(f);
     }
-    let confirmed = |hz: f64| fits.iter().filter(|(_, g)| sees(g, hz)).count() >= 2;
-    // Up to its highest kept mode: every resonance confirmed, and every confirmed one there.
-    let usable = |f: &ModesFit| {
-        let top = f.kept.iter().map(|k| f.all[k - 1].hz()).fold(0.0, f64::max)
-            * (1.0 + 2.0 * order::F_TOL);
-        f.all
-            .iter()
-            .filter(|m| m.hz() <= top)
-            .all(|m| confirmed(m.hz()))
-            && fits.iter().all(|(_, g)| {
-                g.all
-                    .iter()
-                    .filter(|m| m.hz() <= top && confirmed(m.hz()))
-                    .all(|m| sees(f, m.hz()))
-            })
-    };
-    let Some(i) = fits.iter().position(|(_, f)| usable(f)) else {
+    let found: Vec<Found> = fits.iter().map(|(_, f)| Found::of(f)).collect();
+    let Some(i) = choose(&found) else {
         return Err(gate(
             "consistency",
             format!(
                 "the record's fits at three lengths disagree on the controller's modes: {}; a fit that moves with where the record ends is not the arm's: record longer, or with more excitation",
                 fits.iter()
-                    .map(|(d, g)| format!("{} found {} Hz", length(*d), list(g)))
+                    .zip(&found)
+                    .map(|((d, _), f)| format!("{} found {} Hz", length(*d), list(f)))
                     .collect::<Vec<_>>()
                     .join("; ")
             ),
@@ -355,16 +383,15 @@ fn agree(
     let why = (i > 0).then(|| {
         format!(
             "the whole record's fit found {} Hz, which its shorter copies do not confirm: the fit of {} is used",
-            list(&fits[0].1),
+            list(&found[0]),
             length(fits[i].0)
         )
     });
-    let lone: Vec<String> = fits[i]
-        .1
-        .all
+    let lone: Vec<String> = found[i]
+        .hz
         .iter()
-        .filter(|m| !confirmed(m.hz()))
-        .map(|m| format!("{:.3}", m.hz()))
+        .filter(|h| !confirmed(&found, **h))
+        .map(|h| format!("{h:.3}"))
         .collect();
     let mut fit = fits.swap_remove(i).1;
     fit.notes.extend(why);
@@ -1068,6 +1095,50 @@ fn finish(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn found(hz: &[f64], top: f64) -> Found {
+        Found {
+            hz: hz.to_vec(),
+            top,
+        }
+    }
+
+    /// The three lengths' rule (module docs, "Three lengths"): the whole record's fit when the
+    /// others confirm it; a shorter copy's when the whole record's holds a resonance below its
+    /// kept modes that no other length finds (the truth plant's 5.79 Hz), or misses one the
+    /// two others find; none when every length keeps a mode of its own; a lone resonance
+    /// above the kept modes does not count.
+    #[test]
+    fn the_lengths_confirm_each_other() {
+        let arm = [4.55, 25.7];
+        let agreeing = [found(&arm, 25.7), found(&arm, 25.7), found(&arm, 25.7)];
+        assert_eq!(choose(&agreeing), Some(0));
+        let spurious = [
+            found(&[4.55, 5.79, 25.7], 5.79),
+            found(&arm, 25.7),
+            found(&arm, 25.7),
+        ];
+        assert_eq!(choose(&spurious), Some(1));
+        let missed = [
+            found(&arm, 25.7),
+            found(&[4.55, 14.0, 25.7], 14.0),
+            found(&[4.55, 14.0, 25.7], 14.0),
+        ];
+        assert_eq!(choose(&missed), Some(1));
+        let apart = [
+            found(&[4.5, 6.0], 6.0),
+            found(&[4.5, 7.0], 7.0),
+            found(&[4.5, 8.0], 8.0),
+        ];
+        assert_eq!(choose(&apart), None);
+        let above = [
+            found(&[4.55, 25.7, 40.0], 25.7),
+            found(&arm, 25.7),
+            found(&arm, 25.7),
+        ];
+        assert_eq!(choose(&above), Some(0));
+        assert!(!confirmed(&above, 40.0) && confirmed(&above, 25.7 * 1.01));
+    }
 
     /// Welch's segment leaves the probe its `10 m` averages at every record length (one
     /// length in twenty fell one short before it counted them as `spectra::welch` does).
