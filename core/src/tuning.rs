@@ -94,11 +94,11 @@ pub const RATE_CEILING_ROWS: usize = 16;
 /// zero-order hold, the board's film delay and amplifier) goes unstable on the link the board
 /// drives: a stability factor of 2, the spillover study's rule (`docs/results.md`,
 /// "Spillover"). Each `g_i` is the least `B(f) f` over corners sampled between `f_{i−1}` and
-/// `f_i`, less a few per cent for what varies between the samples: above the filter's corner the law acts on the modes with a gain near `k_c ω_c`, so
-/// `B(f) f` varies slowly and the step costs little, and a corner between rows is held to no
-/// more than the loop allows there. Computed on the host from the model file (`cargo sim
-/// firmware-params`, `firmware_params::rate_ceilings`, which says which link each board's is
-/// computed on).
+/// `f_i`, less a few per cent for what varies between the samples: above the filter's corner
+/// the law acts on the modes with a gain near `k_c ω_c`, so `B(f) f` varies slowly and the
+/// step costs little, and a corner between rows is held to no more than the loop allows
+/// there. Computed on the host from the model file (`cargo sim firmware-params`,
+/// `firmware_params::rate_ceilings`, which says which link each board's is computed on).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RateCeiling<T> {
     /// `[f_i, g_i]`, `f_i` ascending [Hz, s·Hz].

@@ -424,8 +424,10 @@ int NAME(flexarm_c_motor_step)(struct fc_ctrl *c, const struct fc_state *s, floa
      * law tracks th_d - K_i z, th_d' - K_i (q - th_d), th_d'' - K_i (q' - th_d'), and the
      * period integrates the encoders' error. */
     int integral = c->ki[0] != 0.0f || c->ki[1] != 0.0f;
-    float pending[2] = {th0 - th_d[0], th1 - th_d[1]};
+    float pending[2];
     if (integral) {
+        pending[0] = th0 - th_d[0];
+        pending[1] = th1 - th_d[1];
         for (int i = 0; i < 2; i++) {
             float k = c->ki[i];
             float d1 = th_d1[i] - k * (q[i] - th_d[i]);

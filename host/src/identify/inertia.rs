@@ -451,19 +451,19 @@ fn solve_inertia(
     let [pos2, vel2, acc2] = derivatives(&th[1], dt, PASS_DERIVATIVES, [0, 1, 2]);
     let (pos, vel, acc) = ([pos1, pos2], [vel1, vel2], [acc1, acc2]);
     let mut raw = [ch(&|s| s.tau.x), ch(&|s| s.tau.y)];
+    let (cos2, sin2): (Vec<f64>, Vec<f64>) = pos[1].iter().map(|p| (p.cos(), p.sin())).unzip();
     for m in flex {
         // The mode's forcing: the base's transverse acceleration `a1 (cos θ2 θ̈1 + sin θ2 θ̇1²)`
         // through `v`, the link's angular acceleration through `w` (module docs).
         let force: Vec<f64> = (0..raw[0].len())
             .map(|k| {
-                let (c2, s2) = (pos[1][k].cos(), pos[1][k].sin());
-                -a1 * m.v * (c2 * acc[0][k] + s2 * vel[0][k] * vel[0][k])
+                -a1 * m.v * (cos2[k] * acc[0][k] + sin2[k] * vel[0][k] * vel[0][k])
                     - m.w * (acc[0][k] + acc[1][k])
             })
             .collect();
         let [d, dd, ddd] = modal_response(&force, dt, m.omega, m.zeta);
         for k in 0..raw[0].len() {
-            let (c2, s2) = (pos[1][k].cos(), pos[1][k].sin());
+            let (c2, s2) = (cos2[k], sin2[k]);
             let (w1, w2, a_1, a_2) = (vel[0][k], vel[1][k], acc[0][k], acc[1][k]);
             // The deflection's first moment `V = v δ` turns the rigid coupling's terms by a
             // quarter turn (module docs).

@@ -305,11 +305,14 @@ impl Found {
         }
     }
 
-    /// Whether it found a resonance within `2 F_TOL` of `hz` [Hz].
+    /// Its resonances at or below `top` [Hz].
+    fn below(&self, top: f64) -> impl Iterator<Item = f64> + '_ {
+        self.hz.iter().copied().filter(move |h| *h <= top)
+    }
+
+    /// Whether it found a resonance at `hz` [Hz] ([`order::same_mode`]).
     fn sees(&self, hz: f64) -> bool {
-        self.hz
-            .iter()
-            .any(|f| (f / hz - 1.0).abs() < 2.0 * order::F_TOL)
+        self.hz.iter().any(|f| order::same_mode(*f, hz))
     }
 }
 
@@ -323,16 +326,12 @@ fn confirmed(found: &[Found], hz: f64) -> bool {
 fn choose(found: &[Found]) -> Option<usize> {
     found.iter().position(|f| {
         let top = f.top * (1.0 + 2.0 * order::F_TOL);
-        let within = |g: &Found| -> Vec<f64> {
-            g.hz.iter()
-                .copied()
-                .filter(|h| *h <= top && confirmed(found, *h))
-                .collect()
-        };
-        f.hz.iter()
-            .filter(|h| **h <= top)
-            .all(|h| confirmed(found, *h))
-            && found.iter().all(|g| within(g).iter().all(|h| f.sees(*h)))
+        f.below(top).all(|h| confirmed(found, h))
+            && found.iter().all(|g| {
+                g.below(top)
+                    .filter(|h| confirmed(found, *h))
+                    .all(|h| f.sees(h))
+            })
     })
 }
 
@@ -934,18 +933,13 @@ fn finish(
     let mut all = Vec::new();
     for m in &found {
         let hz = m.omega / tau;
-        if m.zeta <= 0.0
-            || !sel
-                .modes_hz
-                .iter()
-                .any(|f| (f / hz - 1.0).abs() < 2.0 * order::F_TOL)
-        {
+        if m.zeta <= 0.0 || !sel.modes_hz.iter().any(|f| order::same_mode(*f, hz)) {
             continue;
         }
         let stable = sel
             .diagram
             .iter()
-            .filter(|p| (p.hz / hz - 1.0).abs() < 2.0 * order::F_TOL)
+            .filter(|p| order::same_mode(p.hz, hz))
             .map(|p| p.run + 1)
             .max()
             .unwrap_or(1);
@@ -958,7 +952,7 @@ fn finish(
                     .abs()
                     .total_cmp(&(b.omega - m.omega).abs())
             })?;
-            ((q.omega / m.omega - 1.0).abs() < 2.0 * order::F_TOL).then(|| {
+            order::same_mode(q.omega, m.omega).then(|| {
                 let v = |i: usize| product(i, q.pole, o.residue(i, q.pole));
                 (
                     (q.omega - m.omega).abs(),

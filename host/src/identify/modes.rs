@@ -77,10 +77,11 @@ impl Excitation {
 }
 
 /// The rest that ends every excitation [s], at most a tenth of the record: the patch at 0 V and
-/// the arm held, so the record ends in the free decay its fit's transient term describes. A
-/// bias step in the last few samples (the last block's, placed by the host's timing over the
-/// link) left the whole record's spectra to a step the transient term cannot follow, and the
-/// fit found no mode at all (about one `identify modes` run in eight on the QEMU arm, issue 32).
+/// the arm held, so the record ends in the free decay its fit's transient term describes,
+/// wherever the host's timing over the link put the last block's steps. (The failures of
+/// `identify modes` on the QEMU arm first blamed on a step at the record's end, about one run
+/// in eight, came from the Welch probe's segment count at some record lengths: `super::modal`,
+/// issue 32.)
 pub const REST: f64 = 2.0;
 
 /// The random excitation of `plan`: alternate blocks of the patch's steps and of joint 2's

@@ -18,6 +18,11 @@ use super::spectra::Spectra;
 pub const F_TOL: f64 = 0.01;
 /// … and of its damping ratio.
 pub const ZETA_TOL: f64 = 0.2;
+/// Whether `a` and `b` [Hz or rad/s] are one resonance: `a` within `2 F_TOL` of `b`.
+pub fn same_mode(a: f64, b: f64) -> bool {
+    (a / b - 1.0).abs() < 2.0 * F_TOL
+}
+
 /// Consecutive stable orders that make a pole a mode.
 pub const RUN: usize = 1;
 /// Sanathanan–Koerner passes per order of the diagram, and of the chosen fit.
@@ -163,10 +168,7 @@ pub fn select(
     let mut stable: Vec<&DiagramPole> = diagram.iter().filter(|p| p.run >= RUN).collect();
     stable.sort_by(|a, b| b.run.cmp(&a.run).then(b.k.cmp(&a.k)));
     for p in stable {
-        if !modes_hz
-            .iter()
-            .any(|f| (f / p.hz - 1.0).abs() < 2.0 * F_TOL)
-        {
+        if !modes_hz.iter().any(|f| same_mode(*f, p.hz)) {
             modes_hz.push(p.hz);
         }
     }
@@ -174,7 +176,7 @@ pub fn select(
     let holds = |poles: &[(f64, f64)]| {
         modes_hz
             .iter()
-            .all(|f| poles.iter().any(|(g, _)| (g / f - 1.0).abs() < 2.0 * F_TOL))
+            .all(|f| poles.iter().any(|(g, _)| same_mode(*g, *f)))
     };
     let (tilt, chosen) = scans
         .iter()

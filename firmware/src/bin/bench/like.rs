@@ -505,16 +505,16 @@ fn integral_agrees(
     }
     let mut ok = true;
     for b in &BUILDS {
-        let mut template = CCtrl([0; 512]);
+        let mut m = CCtrl([0; 512]);
         let mut a = Agreement { worst: 0.0 };
         for (i, s) in first.iter().enumerate() {
             let mut tau = Vector2::zeros();
             // SAFETY: as in `run`.
             unsafe {
-                (b.init)(&mut template, &params);
-                (b.reset)(&mut template, &s.y.theta);
-                (b.motor_step)(&mut template, s, &mut tau);
-                (b.motor_step)(&mut template, &steady[i], &mut tau);
+                (b.init)(&mut m, &params);
+                (b.reset)(&mut m, &s.y.theta);
+                (b.motor_step)(&mut m, s, &mut tau);
+                (b.motor_step)(&mut m, &steady[i], &mut tau);
             }
             a.add(rust[i].as_slice(), tau.as_slice());
         }
