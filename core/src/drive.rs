@@ -320,16 +320,12 @@ impl<T: Real> Drive<T> {
         Ok(())
     }
 
-    /// The board's homing inputs of this motor period (index pulses, limit switches), for the
-    /// search that runs; a board calls it before [`Self::step`] while [`Self::searching`].
+    /// The board's homing inputs of this motor period (index pulses, limit switches): a board
+    /// calls it before every [`Self::step`]. A search looks for its reference in them; a homed
+    /// joint's reference seen off its angle latches [`Fault::ReferenceMismatch`]
+    /// ([`Homing::mismatch`]).
     pub fn homing_inputs(&mut self, inputs: homing::Inputs<T>) {
         self.inputs = inputs;
-    }
-
-    /// Whether a homing search runs (the board's homing inputs are read then).
-    #[inline(always)]
-    pub fn searching(&self) -> bool {
-        self.mode == Mode::Homing
     }
 
     /// The encoder measurement `y` in the arm's frame: `θ = θ_enc + offset` per joint
@@ -474,10 +470,10 @@ impl<T: Real> Drive<T> {
         ctrl: &mut Controller<T>,
         now: Ticks,
         y: Option<&Measurement<T>>,
+        inputs: &homing::Inputs<T>,
         report: &mut MotorReport<T>,
     ) {
         crate::hint::cold();
-        let inputs = core::mem::take(&mut self.inputs);
         let (Some(j), None) = (self.homing.searching(), ctrl.fault()) else {
             self.homing.abort();
             self.mode = Mode::Disarmed;
@@ -512,7 +508,7 @@ impl<T: Real> Drive<T> {
         };
         let mut found = self
             .homing
-            .search(j, theta_j, tau_j, &inputs, ctrl.motor_period);
+            .search(j, theta_j, tau_j, inputs, ctrl.motor_period);
         if found == Search::Running && self.time(now) >= self.end {
             self.homing.fail();
             found = Search::Failed;
@@ -598,6 +594,7 @@ impl<T: Real> Drive<T> {
         let y = y.map(|y| self.arm_frame(y));
         let y = y.as_ref();
         let homing = self.mode == Mode::Homing;
+        let inputs = core::mem::take(&mut self.inputs);
         let rated = ctrl.motor.limits.tau_max;
         if homing {
             ctrl.motor.limits.tau_max = self.search_torque(rated);
@@ -609,7 +606,12 @@ impl<T: Real> Drive<T> {
         };
         if homing {
             ctrl.motor.limits.tau_max = rated;
-            self.search(ctrl, now, y, &mut report);
+            self.search(ctrl, now, y, &inputs, &mut report);
+        } else if self.homing.mismatch(&inputs).is_some() {
+            // The joint is not where its encoder says (`crate::homing`): no check that reads
+            // the encoder can be trusted, so this comes first.
+            ctrl.trip(Fault::ReferenceMismatch);
+            report.command = Command::safe();
         } else if let (Some(y), Some(law), true) = (y, report.law, ctrl.armed()) {
             // θ_d = θ̂ − (θ̂ − θ_d) with the θ̂ the law ran on: the estimate after the step is
             // one period ahead, and with it θ_d would be the next period's reference, `θ̇ T`
@@ -1306,7 +1308,8 @@ impl<T: Real> Drive<T> {
             | Fault::FrozenEncoder
             | Fault::Overspeed
             | Fault::SoftLimit
-            | Fault::BrakeSlip => measured.is_some(),
+            | Fault::BrakeSlip
+            | Fault::ReferenceMismatch => measured.is_some(),
             Fault::Overload => {
                 let h = self.monitor.heat;
                 let cool = self.motion.thermal.derate;
@@ -1323,7 +1326,11 @@ impl<T: Real> Drive<T> {
         let mut theta = y.theta;
         if matches!(
             fault,
-            Fault::NonFinite | Fault::EncoderJump | Fault::Stale | Fault::FrozenEncoder
+            Fault::NonFinite
+                | Fault::EncoderJump
+                | Fault::Stale
+                | Fault::FrozenEncoder
+                | Fault::ReferenceMismatch
         ) {
             theta -= self.homing.offset();
             self.homing.forget();

@@ -51,11 +51,14 @@ pub enum Fault {
     /// A joint moved while its holding brake was engaged (`crate::brake`): the brake does
     /// not hold.
     BrakeSlip,
+    /// A homed joint's index or limit switch was seen where its encoder says the joint is not
+    /// (`crate::homing`): a coupling that slipped, or counts lost.
+    ReferenceMismatch,
 }
 
 impl Fault {
     /// Every fault, in the order of their stable numbers (1, 2, …).
-    pub const ALL: [Fault; 18] = [
+    pub const ALL: [Fault; 19] = [
         Self::NonFinite,
         Self::OutOfRange,
         Self::Stale,
@@ -74,6 +77,7 @@ impl Fault {
         Self::SoftLimit,
         Self::Overload,
         Self::BrakeSlip,
+        Self::ReferenceMismatch,
     ];
 
     /// The fault of stable number `code` (`fault as u8`, what the command link reports).
@@ -115,6 +119,9 @@ impl Fault {
             Self::SoftLimit => "joint at the end of its range",
             Self::Overload => "motor overload (I2t)",
             Self::BrakeSlip => "holding brake slip (a joint moved while braked)",
+            Self::ReferenceMismatch => {
+                "joint reference off its angle (a slipped encoder coupling or lost counts)"
+            }
         }
     }
 }

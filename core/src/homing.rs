@@ -71,13 +71,18 @@ pub struct Config<T> {
     pub stall_time: T,
     /// End-stop search: the share of the search torque that counts as "at the limit".
     pub stall_share: T,
+    /// After homing: how far from its angle a joint's index or switch may be seen again before
+    /// the drive latches `ReferenceMismatch` ([`Homing::mismatch`]) [rad]. Above the edge's
+    /// repeatability and a switch's hysteresis.
+    pub tolerance: T,
 }
 
 impl<T: Real> Default for Config<T> {
     /// Both joints by their index marks at 0 rad, searching at +0.2 rad/s with 1 N·m for at
     /// most 6.5 rad (a little over one revolution: the mark is met once in any revolution);
     /// an end stop counts as found after 0.2 s within 2 mrad (5 counts of a 16384-count
-    /// encoder) at 90 % of the search torque.
+    /// encoder) at 90 % of the search torque; a reference seen again within 10 mrad (26 counts)
+    /// of its angle.
     fn default() -> Self {
         let joint = JointHoming {
             method: Method::Index,
@@ -91,6 +96,7 @@ impl<T: Real> Default for Config<T> {
             stall_travel: T::c(0.002),
             stall_time: T::c(0.2),
             stall_share: T::c(0.9),
+            tolerance: T::c(0.01),
         }
     }
 }
@@ -341,6 +347,40 @@ impl<T: Real> Homing<T> {
         }
     }
 
+    /// The first homed joint whose reference the board saw in `inputs` (a latched encoder
+    /// reading) off its angle by more than [`Config::tolerance`]: an index mark at `angle`
+    /// plus a whole number of turns, a switch's edge at `angle` (an end stop gives no input).
+    /// The reference is on the joint's side of what can fail: a switch on the joint sees a
+    /// coupling that slipped under the encoder; an index on the encoder's disk sees counts lost
+    /// between the disk and the counter. A declared joint is not checked: its frame is the
+    /// host's word, not measured against the reference.
+    pub fn mismatch(&self, inputs: &Inputs<T>) -> Option<usize> {
+        (0..2).find(|&j| {
+            let (Some(cfg), Some(&at), Some(&state)) = (
+                self.config.joints.get(j),
+                inputs.latched.get(j),
+                self.state.get(j),
+            ) else {
+                return false;
+            };
+            if state != State::Homed || !at.finite() {
+                return false;
+            }
+            let off = at + if j == 0 { self.offset.x } else { self.offset.y } - cfg.angle;
+            let off = match cfg.method {
+                Method::Index => {
+                    let (sin, cos) = off.lsin_cos();
+                    sin.latan2(cos)
+                }
+                Method::Switch => off,
+                Method::EndStop => return false,
+            };
+            // Not `off.abs() > tolerance`: a tolerance that is not a number trips.
+            let within = off.abs() <= self.config.tolerance;
+            !within
+        })
+    }
+
     /// The end-stop's stall: the joint within `stall_travel` of where the stall began for
     /// `stall_time`, its torque at the search limit towards the stop. The stop's offset then.
     fn stall(&mut self, cfg: &JointHoming<T>, theta_enc: T, tau: T, dt: T) -> Option<T> {
@@ -435,6 +475,65 @@ mod tests {
         );
         assert_eq!(h.state(0), State::Unhomed);
         assert!(h.failed());
+    }
+
+    /// Joint 1 homed on its reference at 3 rad, its encoder then reading 0.25 rad there.
+    fn homed(method: Method) -> Homing<f64> {
+        let mut h = Homing::new(config(method));
+        h.begin(0, 0.0);
+        let at = Inputs {
+            latched: [0.25, f64::NAN],
+        };
+        assert_eq!(h.search(0, 0.25, 0.2, &at, 1e-3), Search::Found(2.75));
+        h
+    }
+
+    fn seen(at: f64) -> Inputs<f64> {
+        Inputs {
+            latched: [at, f64::NAN],
+        }
+    }
+
+    #[test]
+    fn a_switch_seen_again_off_its_angle_is_a_mismatch() {
+        let h = homed(Method::Switch);
+        assert_eq!(h.mismatch(&Inputs::default()), None);
+        // Within the 10 mrad tolerance on either side: the edge's repeatability.
+        assert_eq!(h.mismatch(&seen(0.25 + 0.009)), None);
+        assert_eq!(h.mismatch(&seen(0.25 - 0.009)), None);
+        // A coupling that slipped by 11 mrad either way, or by a turn: the switch has no turns.
+        assert_eq!(h.mismatch(&seen(0.25 + 0.011)), Some(0));
+        assert_eq!(h.mismatch(&seen(0.25 - 0.011)), Some(0));
+        assert_eq!(h.mismatch(&seen(0.25 + core::f64::consts::TAU)), Some(0));
+        // A reading that is not a number is not a reference seen.
+        assert_eq!(h.mismatch(&seen(f64::INFINITY)), None);
+    }
+
+    #[test]
+    fn an_index_seen_again_a_turn_on_is_not_a_mismatch_and_lost_counts_are() {
+        let h = homed(Method::Index);
+        for turns in [-2.0, -1.0, 1.0, 3.0] {
+            let at = 0.25 + turns * core::f64::consts::TAU;
+            assert_eq!(h.mismatch(&seen(at)), None, "{turns} turns");
+            assert_eq!(h.mismatch(&seen(at + 0.02)), Some(0), "{turns} turns");
+        }
+    }
+
+    #[test]
+    fn only_homed_joints_are_checked() {
+        // Joint 2 unhomed, joint 1 declared, an end stop homed: none has a reference to see.
+        let mut h = homed(Method::Switch);
+        let other = Inputs {
+            latched: [f64::NAN, 9.0],
+        };
+        assert_eq!(h.mismatch(&other), None);
+        h.declare(Vector2::zeros(), Vector2::zeros());
+        assert_eq!(h.mismatch(&seen(1.0)), None);
+        let mut stop = Homing::new(config(Method::EndStop));
+        stop.begin(0, 0.0);
+        while stop.search(0, 0.25, 1.0, &Inputs::default(), 1e-3) == Search::Running {}
+        assert_eq!(stop.state(0), State::Homed);
+        assert_eq!(stop.mismatch(&seen(1.0)), None);
     }
 
     #[test]

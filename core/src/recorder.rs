@@ -16,8 +16,11 @@ use crate::retained::{checksum, checksum_step};
 /// The seal of a frozen recorder ("FRZN").
 pub const SEAL_MAGIC: u32 = 0x4652_5a4e;
 
-/// One recorded motor period.
+/// One recorded motor period. Packed to 4-byte alignment: 44 bytes, not the 48 that the `u64`'s
+/// alignment would pad it to (2 KB of the boards' recorder of 500; a field is read by value,
+/// `{ s.tick }` where a reference would be taken).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, packed(4))]
 pub struct Sample {
     /// Motor period.
     pub tick: u64,

@@ -14,7 +14,7 @@
 //! Both are plain integers and floats, so any bit pattern is a value: a firmware may keep them
 //! in RAM that nothing initializes (`docs/firmware.md`, "What survives a reset"). The checksum
 //! is FNV-1a over the stores' 32-bit words ([`checksum`]): a few instructions a word, so that
-//! sealing the 24 KB recorder fits in a motor period and an emergency handler; it is there to
+//! sealing the 22 KB recorder fits in a motor period and an emergency handler; it is there to
 //! tell random or torn RAM from a finished write, not to resist an adversary.
 
 use crate::Vector2;

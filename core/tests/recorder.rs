@@ -22,7 +22,7 @@ fn it_keeps_the_last_samples_and_freezes_at_the_fault() {
         r.record(&sample(t), None);
     }
     assert_eq!(r.len(), 3);
-    assert_eq!(r.get(0).unwrap().tick, 0);
+    assert_eq!({ r.get(0).unwrap().tick }, 0);
     for t in 3..12 {
         r.record(&sample(t), None);
     }
@@ -44,5 +44,5 @@ fn it_keeps_the_last_samples_and_freezes_at_the_fault() {
     r.restart();
     assert!(r.is_empty() && r.fault().is_none());
     r.record(&sample(30), None);
-    assert_eq!(r.get(0).unwrap().tick, 30);
+    assert_eq!({ r.get(0).unwrap().tick }, 30);
 }

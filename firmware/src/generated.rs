@@ -169,10 +169,11 @@ pub const HARDWARE: BoardConfig = BoardConfig {
         stall_travel: 2e-3,
         stall_time: 2e-1,
         stall_share: 9e-1,
+        tolerance: 1e-2,
     },
 };
 /// `BoardConfig::hash` of [`HARDWARE`], the handshake's `params_hash`.
-pub const HARDWARE_HASH: u32 = 0x33c8d54e;
+pub const HARDWARE_HASH: u32 = 0x10aac87e;
 
 /// The rate law's `k_c` ceiling by filter corner on the QEMU board (`[f_c [Hz], k_c,max [s]]`,
 /// `flexarm_core::tuning::RateCeiling`; `firmware_params::rate_ceilings`).
@@ -257,7 +258,8 @@ pub const QEMU: BoardConfig = BoardConfig {
         stall_travel: 2e-3,
         stall_time: 2e-1,
         stall_share: 9e-1,
+        tolerance: 1e-2,
     },
 };
 /// `BoardConfig::hash` of [`QEMU`], the handshake's `params_hash`.
-pub const QEMU_HASH: u32 = 0x7e85296b;
+pub const QEMU_HASH: u32 = 0x8ae7982b;

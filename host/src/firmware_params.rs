@@ -662,6 +662,7 @@ fn config_literal(c: &BoardConfig, gain: &str, name: &str) -> String {
         stall_travel: {stall_travel},
         stall_time: {stall_time},
         stall_share: {stall_share},
+        tolerance: {tolerance},
     }},
 }}",
         board = c.board,
@@ -721,6 +722,7 @@ fn config_literal(c: &BoardConfig, gain: &str, name: &str) -> String {
         stall_travel = f(c.homing.stall_travel),
         stall_time = f(c.homing.stall_time),
         stall_share = f(c.homing.stall_share),
+        tolerance = f(c.homing.tolerance),
     )
 }
 

@@ -14,6 +14,7 @@
 //! damped on joint 1's inertia).
 
 use flexarm_core::drive::{Mode, MoveRequest};
+use flexarm_core::homing::{Config as HomingConfig, Inputs, JointHoming, Method};
 use flexarm_core::motion::MotionLimits;
 use flexarm_core::time::Ticks;
 use flexarm_core::trajectory::{JointTrajectory, Profile, Trapezoid};
@@ -58,6 +59,12 @@ struct TruthBoard {
     brake_stuck: bool,
     /// Plant time [s].
     t: f64,
+    /// A limit switch per joint, on the joint's side of the coupling, at these plant angles
+    /// [rad] (∞: none): crossing one latches the encoder's reading, as the board's capture does
+    /// (`Board::homing_inputs`).
+    switch: [f64; 2],
+    /// The readings latched since the last `homing_inputs` (NaN: none).
+    latched: [f32; 2],
 }
 
 impl TruthBoard {
@@ -104,7 +111,13 @@ impl Board for TruthBoard {
     fn amplifier_fault(&mut self) -> bool {
         false
     }
+    fn homing_inputs(&mut self) -> Inputs<f32> {
+        Inputs {
+            latched: std::mem::replace(&mut self.latched, [f32::NAN; 2]),
+        }
+    }
     fn tick(&mut self) {
+        let before = self.theta();
         let x = self.plant.state();
         let mut applied = if self.enabled {
             self.tau
@@ -121,6 +134,12 @@ impl Board for TruthBoard {
         }
         self.plant.step(&applied, self.v_a, 1e-4).unwrap();
         self.t += 1e-4;
+        let now = self.theta();
+        for j in 0..2 {
+            if (before[j] < self.switch[j]) != (now[j] < self.switch[j]) {
+                self.latched[j] = self.encoders()[j];
+            }
+        }
     }
 }
 
@@ -157,6 +176,8 @@ impl Run {
             brake: true,
             brake_stuck: false,
             t: 0.0,
+            switch: [f64::INFINITY; 2],
+            latched: [f32::NAN; 2],
         };
         Self {
             rig: {
@@ -473,7 +494,8 @@ const COMMISSIONED_SPEED_ERROR: f32 = 0.005;
 /// A slipping encoder (a loose coupling: the reading runs ahead of the joint) is not seen by
 /// the motion checks, at any slip rate under the jump check's 20 rad/s: the loop follows the
 /// slipping reading and the torques stay what a joint moving at the reference needs
-/// (docs/safety.md says so; the index-pulse check after homing is the drive's answer). The
+/// (docs/safety.md says so; a limit switch after homing is the drive's answer: test
+/// `a_slipping_encoder_is_caught_at_its_limit_switch`). The
 /// test pins the statement: it fails once a check does see it.
 #[test]
 fn a_slipping_encoder_is_not_seen_by_the_motion_checks() {
@@ -493,6 +515,115 @@ fn a_slipping_encoder_is_not_seen_by_the_motion_checks() {
             "the joint drifts at the slip rate"
         );
     }
+}
+
+/// The drive's default tolerance for a reference seen again [rad].
+const TOLERANCE: f32 = 0.01;
+
+/// The joints' limit switches of the slip grid, at this angle [rad] of the plant and of the
+/// arm's frame.
+const SWITCH: f64 = 0.05;
+
+/// Both joints homed on limit switches at [`SWITCH`] (each searching from rest at 0 at
+/// +0.2 rad/s with 1 N·m), then moved to `SWITCH + d` and held, and from then on joint
+/// `joint`'s encoder slipping at `rate` [rad/s]: its reading runs ahead, so the joint drifts
+/// back towards its switch. The drive sees a switch off its angle by more than `tolerance`
+/// [rad]. Returns the run and the slip's start [s].
+fn slipping_after_homing(joint: usize, rate: f64, d: f64, tolerance: f32) -> (Run, f64) {
+    let mut r = Run::new(Failure::None, Vector2::zeros());
+    r.rig.board.switch = [SWITCH; 2];
+    let search = JointHoming {
+        method: Method::Switch,
+        angle: SWITCH as f32,
+        speed: 0.2,
+        torque: 1.0,
+        travel: 0.5,
+    };
+    let config = HomingConfig {
+        joints: [search; 2],
+        tolerance,
+        ..HomingConfig::default()
+    };
+    r.rig.drive.configure_homing(config).unwrap();
+    r.rig.home().unwrap();
+    for _ in 0..3000 {
+        r.period();
+        if r.rig.mode() != Mode::Homing {
+            break;
+        }
+    }
+    assert_eq!(
+        r.rig.mode(),
+        Mode::Armed,
+        "{:?}",
+        r.rig.control.ctrl.fault()
+    );
+    let to = (SWITCH + d) as f32;
+    let request = MoveRequest::Trapezoid {
+        target: Vector2::new(to, to),
+        move_time: 0.5,
+        ramp_time: 0.2,
+    };
+    r.rig.start(&request).unwrap();
+    r.run(0.7);
+    assert_eq!(r.rig.control.ctrl.fault(), None);
+    let t0 = r.rig.board.t;
+    r.rig.board.failure = Failure::Slip(joint, rate, t0);
+    let from = r.t();
+    (r, from)
+}
+
+/// A slipping encoder on a joint homed on a limit switch (a switch on the joint's side of the
+/// coupling: `flexarm_core::homing::Homing::mismatch`). Held 0.05 rad from its switch, the
+/// joint drifts back at the slip rate and crosses it; the board latches the reading there, off
+/// the switch's angle by the slip: `ReferenceMismatch`, category 0, in the motor period of the
+/// crossing, at slip rates from 0.01 to 0.3 rad/s; at 1 rad/s `Runaway` comes first
+/// (docs/safety.md prints the table). Without
+/// the check (`tolerance` = ∞) nothing sees it: the joint runs on past the switch.
+#[test]
+fn a_slipping_encoder_is_caught_at_its_limit_switch() {
+    println!(
+        "| joint | slip rate [rad/s] | fault | detected after [ms] | slip at the cut [rad] | past the switch at the cut [rad] | coast after [rad] |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for joint in [0, 1] {
+        for rate in [0.01, 0.03, 0.1, 0.3, 1.0] {
+            let (mut r, from) = slipping_after_homing(joint, rate, 0.05, TOLERANCE);
+            r.run(0.05 / rate + 1.0);
+            let (t, at) = r.fault_at.unwrap_or((f64::NAN, r.theta()));
+            let fault = r.rig.control.ctrl.fault();
+            let slip = rate * (t - from);
+            let past = (SWITCH - at[joint]).max(0.0);
+            let coast = (r.theta()[joint] - at[joint]).abs();
+            println!(
+                "| {} | {rate} | {} | {:.0} | {slip:.4} | {past:.4} | {coast:.4} |",
+                joint + 1,
+                fault.map_or("none".into(), |f| format!("`{f:?}`")),
+                (t - from) * 1e3
+            );
+            // A slip as fast as the joints move throws the joint against its torque, and the
+            // runaway check sees it first.
+            let expected = if rate < 1.0 {
+                Fault::ReferenceMismatch
+            } else {
+                Fault::Runaway
+            };
+            assert_eq!(fault, Some(expected), "{rate} rad/s");
+            // The crossing is seen in its motor period: the joint at most two periods of its
+            // drift past the switch.
+            assert!(
+                past <= 2e-3 * rate + 1e-4,
+                "{past} rad past at {rate} rad/s"
+            );
+            assert!(coast < 0.02, "{coast}");
+        }
+    }
+    // The same slip with the check's tolerance out of reach: the joint drifts on past its
+    // switch, and nothing trips.
+    let (mut r, _) = slipping_after_homing(1, 0.3, 0.05, f32::INFINITY);
+    r.run(0.5);
+    assert_eq!(r.rig.control.ctrl.fault(), None);
+    assert!(r.theta()[1] < SWITCH - 0.05, "{}", r.theta()[1]);
 }
 
 /// Healthy moves of the family's arms (host/src/identify/family.rs: a 0.5 Hz link with a tip

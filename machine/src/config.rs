@@ -386,7 +386,7 @@ impl BoardConfig {
                 f(v.to_bits());
             }
         }
-        for v in [h.stall_travel, h.stall_time, h.stall_share] {
+        for v in [h.stall_travel, h.stall_time, h.stall_share, h.tolerance] {
             f(v.to_bits());
         }
         f(u32::from(self.piezo_law.code()));

@@ -34,7 +34,7 @@ use crate::board::Board;
 use crate::config::BoardConfig;
 use crate::telemetry::Record;
 
-/// Samples the fault recorder holds: 500 of 48 bytes (24 KB of RAM): the last second on the
+/// Samples the fault recorder holds: 500 of 44 bytes (22 KB of RAM): the last second on the
 /// hardware board (which records every second period), the last 5 s under QEMU
 /// (`BoardConfig::record_every`).
 pub const RECORDER_LEN: usize = 500;
@@ -232,9 +232,7 @@ pub fn motor_step(m: &mut MotorLoop, c: &mut Control, d: &mut Drive<f32>, s: &Se
     if let Err(f) = m.amplifier.update(m.enabled, s.amplifier_fault) {
         c.ctrl.trip(f);
     }
-    if d.searching() {
-        d.homing_inputs(s.homing);
-    }
+    d.homing_inputs(s.homing);
     let report = d.step(&mut c.ctrl, tick, Some(&s.y));
     // The piezo bias lives while the drive holds, not a period longer.
     if d.mode(&c.ctrl) != Mode::Armed {

@@ -314,3 +314,55 @@ fn clearing_an_encoder_fault_forgets_the_homing() {
     assert_eq!(rig.drive.homing().states(), [State::Declared; 2]);
     assert_eq!(rig.arm(), Ok(()));
 }
+
+/// After homing, every pass over a joint's index mark is checked against the mark's angle
+/// (`Homing::mismatch`): passes at the homed count are clean both ways; counts lost between the
+/// disk and the counter (the simulated encoder's zero moved by 15 mrad, 39 counts, past the
+/// 10 mrad tolerance) latch `ReferenceMismatch` at the next pass, in category 0, and clearing
+/// it unhomes the joints: `arm` is refused until they are homed again.
+#[test]
+fn an_index_seen_off_its_angle_after_homing_trips_and_unhomes() {
+    let mut c = stop_and_index();
+    c.joints[0] = JointHoming {
+        method: Method::Index,
+        angle: 0.7,
+        ..c.joints[1]
+    };
+    c.joints[0].speed = 0.4;
+    c.joints[1].angle = -0.6;
+    let mut rig = powered_up([0.5, -0.4], c, |sim| {
+        sim.index = [0.7, -0.6];
+    });
+    home(&mut rig, 10.0);
+    assert_eq!(rig.drive.homing().states(), [State::Homed; 2]);
+    // Over both marks and back: clean.
+    for target in [[1.0, 0.0], [0.5, -0.9], [1.0, 0.0]] {
+        rig.start(&trapezoid(target)).unwrap();
+        run(&mut rig, 3.5);
+        assert_eq!(rig.mode(), Mode::Armed, "{:?}", rig.control.ctrl.fault());
+    }
+    // Joint 2's counter loses 39 counts; its next pass over the mark sees them.
+    rig.board.zero[1] += 0.015;
+    run(&mut rig, 0.5);
+    assert_eq!(rig.control.ctrl.fault(), None, "not seen before the mark");
+    rig.start(&trapezoid([1.0, -0.9])).unwrap();
+    let mut at = None;
+    for k in 0..3500 {
+        rig.period();
+        if rig.control.ctrl.fault().is_some() {
+            at = Some((k, plant(&rig).y));
+            break;
+        }
+    }
+    let (k, theta2) = at.expect("ReferenceMismatch");
+    eprintln!("lost counts seen {k} ms into the move, joint 2 at {theta2:.4} rad (mark at -0.6)");
+    assert_eq!(
+        rig.control.ctrl.fault(),
+        Some(flexarm_core::Fault::ReferenceMismatch)
+    );
+    assert!((theta2 + 0.6).abs() < 2e-3, "cut at the mark: {theta2}");
+    assert!(!rig.board.arm.enabled(), "category 0: the amplifiers cut");
+    assert!(matches!(rig.answer(Command::Clear), Reply::Cleared(_)));
+    assert_eq!(homing_states(&mut rig), [HomeState::Unhomed; 2]);
+    assert_eq!(rig.arm(), Err(Refused::NotHomed));
+}
