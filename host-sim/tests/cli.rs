@@ -236,6 +236,11 @@ fn firmware_params_refuses_with_one_error_line() {
             "unknown field `controller`",
         ),
         ("syntax.toml", "[piezo\n".to_string(), "unclosed table"),
+        (
+            "homing.toml",
+            format!("{good}\n[homing.joint2]\nmethod = \"switch\"\nspeed = 0.0\n"),
+            "`homing.joint2.speed`: must not be 0",
+        ),
     ];
     for (name, text, expect) in cases {
         assert_ne!(text, good, "{name}: the edit must change the fragment");
@@ -256,9 +261,11 @@ fn firmware_params_refuses_with_one_error_line() {
         );
         assert!(!out.exists(), "{name}: nothing written on error");
         // The line of the key it is about.
-        if name == "off.toml" {
-            let line = text.lines().position(|l| l.starts_with("x_a")).unwrap() + 1;
-            assert!(lines[0].contains(&format!("off.toml:{line}: ")), "{stderr}");
+        for (file, key) in [("off.toml", "x_a"), ("homing.toml", "speed")] {
+            if name == file {
+                let line = text.lines().position(|l| l.starts_with(key)).unwrap() + 1;
+                assert!(lines[0].contains(&format!("{file}:{line}: ")), "{stderr}");
+            }
         }
     }
     let (ok, _, stderr) = sim(&[

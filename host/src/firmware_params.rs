@@ -12,6 +12,9 @@
 //! function the host runs on the same model: [`FirmwareParams::board`]) with its hash, so the
 //! firmware computes neither.
 //!
+//! The joints' homing: the file's `[homing]` ([`crate::board_homing`]; none: both joints by
+//! their index marks at 0 rad), in both boards' configurations.
+//!
 //! The arm: the file's `[arm]` (the paper's values where it has none), with the modes of
 //! `[piezo.computed]` when `piezo.modes = "computed"`, else the paper's frequencies on the
 //! uniform link's shapes. The QEMU board's simulated arm stays the paper's arm whatever the
@@ -108,6 +111,8 @@ pub struct FirmwareParams {
     /// The rate law's gain ceiling on the hardware board and on the QEMU board
     /// ([`rate_ceilings`]).
     pub ceilings: [RateCeiling<f32>; 2],
+    /// How the joints home: the source's `[homing]` ([`crate::board_homing`]), both boards.
+    pub homing: flexarm_core::homing::Config<f32>,
 }
 
 impl FirmwareParams {
@@ -119,14 +124,16 @@ impl FirmwareParams {
             Board::Qemu => 1,
         };
         let g = &self.gains[period];
-        BoardConfig::for_board(
+        let mut c = BoardConfig::for_board(
             board,
             self.arm.cast::<f32>(),
             self.patch.to_f32(),
             self.k_c as f32,
             interned(self.ceilings[period]),
             core::array::from_fn(|i| core::array::from_fn(|j| g[(i, j)] as f32)),
-        )
+        );
+        c.homing = self.homing;
+        c
     }
 }
 
@@ -140,6 +147,7 @@ pub fn paper_board(board: Board) -> Result<BoardConfig, Error> {
 pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
     let (arm, choice) =
         crate::scenario::read_model(fragment_text).map_err(|e| Error(one_line(&e.0)))?;
+    let homing = crate::board_homing::read(fragment_text).map_err(Error)?;
     let patch = choice.patch;
     let k_c = choice.controller_k_c();
     // The firmware validates the patch in f32 (Controller::new); refuse here what it would
@@ -216,6 +224,7 @@ pub fn design(fragment_text: &str) -> Result<FirmwareParams, Error> {
         k_c,
         gains,
         ceilings,
+        homing,
     })
 }
 

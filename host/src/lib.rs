@@ -10,6 +10,7 @@
 //! (`flexarm-placement`, which only the simulator's command uses): `docs/architecture.md`.
 
 pub mod actuators;
+pub mod board_homing;
 pub mod cli;
 pub mod eigen;
 pub mod firmware_params;

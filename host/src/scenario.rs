@@ -446,6 +446,9 @@ pub fn read_model(
         arm: ArmSpec,
         // Read by `read_piezo`; named here so that no other table passes.
         piezo: Option<toml::Table>,
+        // The board's homing, read by `crate::board_homing` (`flexarm-sim firmware-params`).
+        #[allow(dead_code)]
+        homing: Option<toml::Table>,
     }
     let f: ModelFile = toml::from_str(text).map_err(|e| ScenarioError(de_error(text, &e)))?;
     if f.piezo.is_none() {

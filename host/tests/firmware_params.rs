@@ -306,3 +306,39 @@ fn the_rate_ceiling_leaves_a_factor_of_2_at_every_corner() {
     assert!(!allows(0, 30.0, 100.0), "the hardware board's shipped gain");
     assert!(allows(0, 3.16, 30.0), "the spillover study's rule");
 }
+
+/// The source's `[homing]` table (`flexarm_host::board_homing`) is each board's homing
+/// configuration, in the generated file too; without one both joints home by their index
+/// marks at 0 rad.
+#[test]
+fn the_sources_homing_table_is_the_boards_homing() {
+    use flexarm_core::homing::{Config, Method};
+    use flexarm_link::msg::Board;
+    let paper = paper_fragment().unwrap();
+    let p = design(&paper).unwrap();
+    assert_eq!(p.board(Board::Hardware).homing, Config::default());
+    let text = format!(
+        "{paper}\n[homing]\ntolerance = 0.005\n[homing.joint1]\nmethod = \"end_stop\"\n\
+         angle = 3.1\nspeed = 0.3\n[homing.joint2]\nmethod = \"switch\"\nangle = -0.5\n\
+         speed = -0.2\ntorque = 0.5\n"
+    );
+    let p = design(&text).unwrap();
+    for board in [Board::Hardware, Board::Qemu] {
+        let h = p.board(board).homing;
+        assert_eq!(h.tolerance, 0.005);
+        assert_eq!(
+            (h.joints[0].method, h.joints[0].angle, h.joints[0].speed),
+            (Method::EndStop, 3.1, 0.3)
+        );
+        assert_eq!(
+            (h.joints[1].method, h.joints[1].angle, h.joints[1].torque),
+            (Method::Switch, -0.5, 0.5)
+        );
+    }
+    let source = render(&text, &Names::default()).unwrap();
+    assert!(
+        source.contains("JointHoming { method: Method::EndStop, angle: 3.1e0, speed: 3e-1,")
+            && source.contains("tolerance: 5e-3,"),
+        "the generated file carries it"
+    );
+}
