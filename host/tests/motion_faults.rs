@@ -163,9 +163,14 @@ impl Run {
     /// The firmware for the paper's arm on the plant of `plant` (another arm, its model not
     /// told).
     fn on(plant: &SimConfig, failure: Failure, start: Vector2<f64>) -> Self {
-        let cfg = SimConfig::default()
+        let paper = SimConfig::default()
             .with_truth(TruthSpec::default())
             .unwrap();
+        Self::with(&paper, plant, failure, start)
+    }
+
+    /// The firmware built for `cfg`'s model on the plant of `plant`.
+    fn with(cfg: &SimConfig, plant: &SimConfig, failure: Failure, start: Vector2<f64>) -> Self {
         let board = TruthBoard {
             plant: plant.plant_at(start).unwrap(),
             failure,
@@ -360,11 +365,26 @@ fn at_speed_with(
     failure: impl Fn(f64) -> Failure,
     speed_error: Option<f32>,
 ) -> (f64, Run) {
+    at_speed_on(None, speed, failure, speed_error).unwrap()
+}
+
+/// [`at_speed_with`] on the arm `arm`, `(model, plant)`: the firmware built for the model on
+/// the plant's truth plant (`None`: the paper's arm and model); `None` when the drive refuses
+/// the move (too fast for the arm's torques).
+fn at_speed_on(
+    arm: Option<(&SimConfig, &SimConfig)>,
+    speed: f64,
+    failure: impl Fn(f64) -> Failure,
+    speed_error: Option<f32>,
+) -> Option<(f64, Run)> {
     let ramp = (speed / 5.0).max(0.1);
     let from = 0.1 + ramp + 0.1;
     let move_time = ramp + (2.6 / speed).min(2.5);
     let target = speed * (move_time - ramp);
-    let mut r = Run::new(failure(from), Vector2::zeros());
+    let mut r = match arm {
+        Some((model, plant)) => Run::with(model, plant, failure(from), Vector2::zeros()),
+        None => Run::new(failure(from), Vector2::zeros()),
+    };
     if let Some(e) = speed_error {
         // Over the link, as an operator commissioning the arm would.
         let param = flexarm_link::params::Param::StallSpeedError;
@@ -379,9 +399,9 @@ fn at_speed_with(
         move_time: move_time as f32,
         ramp_time: ramp as f32,
     };
-    r.rig.start(&request).unwrap();
+    r.rig.start(&request).ok()?;
     r.run(from - 0.1);
-    (from, r)
+    Some((from, r))
 }
 
 /// A row of the table: the fault, its detection time after the failure [ms], the failing
@@ -486,6 +506,102 @@ fn encoder_faults_by_speed_commissioned() {
     let (frozen, reversed) = encoder_fault_table(Some(COMMISSIONED_SPEED_ERROR));
     assert!(frozen.iter().all(|t| *t < 0.05), "{frozen:?}");
     assert!(reversed < 0.05);
+}
+
+/// Commissioned arms unlike ours: each arm of the identification family (a 0.5 Hz link with a
+/// tip body, a 0.5 kg payload, the patch elsewhere, ζ1 = 0.01, a 1 m link) driven by the
+/// firmware built for its own model (the true parameters' two-mode truncation, which the
+/// identification reaches within docs/identification.md's bounds), at the commissioned speed
+/// error: healthy moves from 0.01 to 2 rad/s never fill more than half of the stall check's
+/// window, and a frozen encoder on either joint is cut before 0.05 rad of travel at 0.01, 0.1
+/// and 1 rad/s.
+#[test]
+fn commissioned_family_arms_cut_a_frozen_encoder_at_every_speed() {
+    for (arm, scale) in flexarm_host::identify::family::family()
+        .into_iter()
+        .flat_map(|a| [0.97, 1.0, 1.03].map(|s| (a.clone(), s)))
+    {
+        let bench = arm.bench().unwrap();
+        let a = &bench.arm;
+        let model = SimConfig {
+            arm: flexarm_core::params::ArmParams {
+                m1: a.m1 * scale,
+                m2: a.m2 * scale,
+                m_h2: a.m_h2 * scale,
+                i_1: a.i_1 * scale,
+                i_h1: a.i_h1 * scale,
+                i_h2: a.i_h2 * scale,
+                i_2_extra: a.i_2_extra * scale,
+                ..*a
+            },
+            ..bench
+        };
+        let arms = Some((&model, &bench));
+        let mut fill = 0.0f32;
+        for speed in SPEEDS {
+            let Some((_, mut r)) = at_speed_on(
+                arms,
+                speed,
+                |_| Failure::None,
+                Some(COMMISSIONED_SPEED_ERROR),
+            ) else {
+                println!("{} at {speed}: refused", arm.name);
+                continue;
+            };
+            for _ in 0..2000 {
+                r.period();
+                let m = &r.rig.drive;
+                fill = fill.max(m.monitor().stall_fill(&m.motion, 1e-3));
+            }
+            let fault = r.rig.control.ctrl.fault();
+            println!(
+                "{} arm, a healthy move at {speed} rad/s: {fault:?}",
+                arm.name
+            );
+            // The slow arm's 0.5 Hz link at 2 rad/s bends its film past the ADC's range
+            // (`OutOfRange`): a sensor's limit, not an encoder check's.
+            assert!(
+                !matches!(fault, Some(Fault::FrozenEncoder | Fault::Runaway)),
+                "{} at {speed} rad/s: {fault:?}",
+                arm.name
+            );
+        }
+        let mut worst = 0.0f64;
+        for joint in [0, 1] {
+            for speed in [0.01, 0.1, 0.3, 1.0] {
+                let Some((mut from, mut r)) = at_speed_on(
+                    arms,
+                    speed,
+                    |t| Failure::Frozen(joint, t),
+                    Some(COMMISSIONED_SPEED_ERROR),
+                ) else {
+                    assert!(speed > 0.3, "{} at {speed} rad/s refused", arm.name);
+                    continue;
+                };
+                let start = r.theta()[joint];
+                r.run(2.0);
+                let (t, at) = r.fault_at.unwrap_or((f64::NAN, r.theta()));
+                from = (t - from) * 1e3;
+                let travel = (at[joint] - start).abs();
+                println!(
+                    "{} arm, joint {} frozen at {speed} rad/s: {:?} after {from:.0} ms, {travel:.4} rad",
+                    arm.name,
+                    joint + 1,
+                    r.rig.control.ctrl.fault()
+                );
+                assert_eq!(r.rig.control.ctrl.fault(), Some(Fault::FrozenEncoder));
+                worst = worst.max(travel);
+            }
+        }
+        println!(
+            "{} arm, its model's masses × {scale}: healthy moves at most {fill:.2} of the stall window; frozen worst travel {worst:.4} rad",
+            arm.name
+        );
+        // Its own model: half the window at most, as on the paper's arm; a model 3 % off
+        // (the identification's inertias are within 2.3 % on these arms) short of the window.
+        let bound = if scale == 1.0 { 0.5 } else { 0.75 };
+        assert!(fill <= bound && worst < 0.05, "{} × {scale}", arm.name);
+    }
 }
 
 /// The stall check's speed error on a commissioned arm [rad/s] (docs/safety.md).
