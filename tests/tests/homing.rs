@@ -172,8 +172,9 @@ fn without_homing_the_same_move_runs_into_the_stop() {
     assert_eq!(rig.mode(), Mode::Fault, "it hit the stop");
 }
 
-#[test]
-fn index_homing_on_both_joints_puts_the_estimate_on_the_plant() {
+/// Switched on at (0.5, −0.4) rad, both joints homed by their index marks at 0.7 and −0.6 rad
+/// (the marks' angles in the arm's frame, at the plant's): armed, holding.
+fn index_homed() -> Rig<SimulatedArm> {
     let mut c = stop_and_index();
     c.joints[0] = JointHoming {
         method: Method::Index,
@@ -188,6 +189,12 @@ fn index_homing_on_both_joints_puts_the_estimate_on_the_plant() {
     home(&mut rig, 10.0);
     assert_eq!(rig.mode(), Mode::Armed);
     assert_eq!(rig.drive.homing().states(), [State::Homed; 2]);
+    rig
+}
+
+#[test]
+fn index_homing_on_both_joints_puts_the_estimate_on_the_plant() {
+    let mut rig = index_homed();
     let offset = rig.drive.homing().offset();
     assert!(
         (offset - Vector2::new(0.5, -0.4)).abs().max() < 1e-3,
@@ -322,19 +329,7 @@ fn clearing_an_encoder_fault_forgets_the_homing() {
 /// it unhomes the joints: `arm` is refused until they are homed again.
 #[test]
 fn an_index_seen_off_its_angle_after_homing_trips_and_unhomes() {
-    let mut c = stop_and_index();
-    c.joints[0] = JointHoming {
-        method: Method::Index,
-        angle: 0.7,
-        ..c.joints[1]
-    };
-    c.joints[0].speed = 0.4;
-    c.joints[1].angle = -0.6;
-    let mut rig = powered_up([0.5, -0.4], c, |sim| {
-        sim.index = [0.7, -0.6];
-    });
-    home(&mut rig, 10.0);
-    assert_eq!(rig.drive.homing().states(), [State::Homed; 2]);
+    let mut rig = index_homed();
     // Over both marks and back: clean.
     for target in [[1.0, 0.0], [0.5, -0.9], [1.0, 0.0]] {
         rig.start(&trapezoid(target)).unwrap();
