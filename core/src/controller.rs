@@ -460,32 +460,27 @@ impl<T: Real> Controller<T> {
             return None;
         }
         // The joints' integral action, when the gains have it (the paper's have none: then
-        // the law runs on the target itself).
+        // the law runs on the target itself). One test, the law in each branch: nothing of
+        // the integral's stays live across the law of the other.
         let ki = self.motor.gains.ki;
-        let law_target = if ki.x != T::zero() || ki.y != T::zero() {
+        let estimate = (&q_hat, &qd_hat);
+        let out = if ki.x != T::zero() || ki.y != T::zero() {
             let state = match full {
                 Some((q, qd)) => (q.xy(), qd.xy()),
                 None => (q_hat.xy(), qd_hat.xy()),
             };
             let measured = y.map(|y| y.theta);
-            self.integral
-                .prepare(&self.motor.gains, &target, state, measured)
-        } else {
-            target
-        };
-        let out = match full {
-            Some((q, qd)) => self.motor.step(t, q, qd, &law_target),
-            None => self
-                .motor
-                .law_with(&terms_hat, t, &q_hat, &qd_hat, &law_target),
-        };
-        let mut out = self.check(out)?;
-        let gains = &self.motor.gains;
-        if gains.ki.x != T::zero() || gains.ki.y != T::zero() {
+            let law_target = self
+                .integral
+                .prepare(&self.motor.gains, &target, state, measured);
+            let mut out = self.law(t, full, &terms_hat, estimate, &law_target)?;
             let limits = (out.tau, self.motor.limits.tau_max);
             self.integral
-                .finish(gains, &mut out.error, limits, self.motor_period);
-        }
+                .finish(&self.motor.gains, &mut out.error, limits, self.motor_period);
+            out
+        } else {
+            self.law(t, full, &terms_hat, estimate, &target)?
+        };
         // u = [τ, C_a V_a] (Eq. 18), written out: IEEE arithmetic cannot drop the `+ 0`s.
         let f = self.c_a * self.v_a;
         let u = Vector4::new(out.tau.x, out.tau.y, f.x, f.y);
@@ -494,6 +489,24 @@ impl<T: Real> Controller<T> {
             .predict_with(&self.motor.model, &terms_hat, &u);
         self.check(predicted)?;
         Some(out)
+    }
+
+    /// The motor law on `target` at `t`: on the full state when given, else on the estimate
+    /// with its terms; a fault it finds latched (`None`).
+    #[inline(always)]
+    fn law(
+        &mut self,
+        t: T,
+        full: Option<(&Vector4<T>, &Vector4<T>)>,
+        terms_hat: &crate::model::Terms<T>,
+        (q_hat, qd_hat): (&Vector4<T>, &Vector4<T>),
+        target: &crate::trajectory::JointTarget<T>,
+    ) -> Option<MotorOutput<T>> {
+        let out = match full {
+            Some((q, qd)) => self.motor.step(t, q, qd, target),
+            None => self.motor.law_with(terms_hat, t, q_hat, qd_hat, target),
+        };
+        self.check(out)
     }
 
     /// One piezo step with the film voltage `v_f` [V]; returns the amplifier command [V]

@@ -447,6 +447,7 @@ impl<T: Real> Cubic<T> {
 
 /// A joint trajectory the controllers can follow (an enum, so the firmware needs no `dyn`).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(u8)]
 pub enum JointTrajectory<T> {
     /// Hold still at the given angles [rad].
     Hold(Vector2<T>),

@@ -337,6 +337,52 @@ static int safe(float tau_out[2]) {
     return 0;
 }
 
+/* The motor law on the target (th_d, th_d', th_d'') at `time`: Eq. 7, then Eq. 16's robust
+ * term through the joints, and the saturation. 0 after tripping SINGULAR on torques that are not
+ * finite. Inlined into each branch of the integral's test, as the Rust runs it
+ * (`Controller::law`). */
+static inline __attribute__((always_inline)) int motor_law(struct fc_ctrl *c, const struct terms *t,
+                                                          const float q[4], const float qd[4],
+                                                          const float th_d[2], const float th_d1[2],
+                                                          const float th_d2[2], float time,
+                                                          float tau[2]) {
+    float s_delta[2];
+    eq7_joints(c, t, q, qd, th_d, th_d1, th_d2, tau, s_delta);
+    if (c->robust) {
+        float e1 = exp_(-c->phi[0] * time);
+        float e2 = c->phi[1] == c->phi[0] ? e1 : exp_(-c->phi[1] * time);
+        float dd1 = qd[2], dd2 = qd[3];
+        float p1 = fabs_(dd1 * s_delta[0]), p2 = fabs_(dd2 * s_delta[1]);
+        float n1 = p1 + layer(c->epsilon[0], e1, c->epsilon_floor);
+        float n2 = p2 + layer(c->epsilon[1], e2, c->epsilon_floor);
+        float rn = 1.0f / (n1 * n2);
+        float f1 = p1 * n2 * rn, f2 = p2 * n1 * rn;
+        float acc1 = -c->d_delta[0] * (1.0f + f1) * dd1;
+        float acc2 = -c->d_delta[1] * (1.0f + f2) * dd2;
+        /* M = -B_dt S^-1, then the damped least squares M^T (M M^T + mu^2 sigma^2 I)^-1 a. */
+        float m11 = -(t->b13 * t->si11 + c->w[0] * t->si12), m12 = -(t->b13 * t->si12 + c->w[0] * t->si22);
+        float m21 = -(t->b14 * t->si11 + c->w[1] * t->si12), m22 = -(t->b14 * t->si12 + c->w[1] * t->si22);
+        float g11 = m11 * m11 + m12 * m12, g12 = m11 * m21 + m12 * m22, g22 = m21 * m21 + m22 * m22;
+        float reg = c->mu2 * (g11 + g22) * 0.5f;
+        g11 += reg;
+        g22 += reg;
+        float det = g11 * g22 - g12 * g12;
+        if (!(det <= 0.0f)) {
+            float inv = 1.0f / det;
+            float y1 = (g22 * acc1 - g12 * acc2) * inv, y2 = (g11 * acc2 - g12 * acc1) * inv;
+            tau[0] += m11 * y1 + m21 * y2;
+            tau[1] += m12 * y1 + m22 * y2;
+        }
+    }
+    if (!finite(tau[0] + tau[1])) {
+        trip(c, SINGULAR);
+        return 0;
+    }
+    tau[0] = saturate(tau[0], c->tau_max[0]);
+    tau[1] = saturate(tau[1], c->tau_max[1]);
+    return 1;
+}
+
 /* The complete motor step at s->t with the sample (s->y_theta, s->y_v_f). Writes the
  * amplifiers' torques (0 in the safe state); returns their enable. */
 int NAME(flexarm_c_motor_step)(struct fc_ctrl *c, const struct fc_state *s, float tau_out[2]) {
@@ -422,12 +468,11 @@ int NAME(flexarm_c_motor_step)(struct fc_ctrl *c, const struct fc_state *s, floa
 
     /* The joints' integral action (core/src/control/integral.rs), when the gains have it: the
      * law tracks th_d - K_i z, th_d' - K_i (q - th_d), th_d'' - K_i (q' - th_d'), and the
-     * period integrates the encoders' error. */
-    int integral = c->ki[0] != 0.0f || c->ki[1] != 0.0f;
-    float pending[2];
-    if (integral) {
-        pending[0] = th0 - th_d[0];
-        pending[1] = th1 - th_d[1];
+     * period integrates the encoders' error, not while a joint's torque is at its limit pushing
+     * the way its error asks, |K_i z| within its bound. One test, the law in each branch. */
+    float tau[2];
+    if (c->ki[0] != 0.0f || c->ki[1] != 0.0f) {
+        float pending[2] = {th0 - th_d[0], th1 - th_d[1]};
         for (int i = 0; i < 2; i++) {
             float k = c->ki[i];
             float d1 = th_d1[i] - k * (q[i] - th_d[i]);
@@ -436,46 +481,8 @@ int NAME(flexarm_c_motor_step)(struct fc_ctrl *c, const struct fc_state *s, floa
             th_d1[i] = d1;
             th_d2[i] = d2;
         }
-    }
-
-    /* Eq. 7, then Eq. 16's robust term through the joints. */
-    float tau[2], s_delta[2];
-    eq7_joints(c, &t, q, qd, th_d, th_d1, th_d2, tau, s_delta);
-    if (c->robust) {
-        float e1 = exp_(-c->phi[0] * time);
-        float e2 = c->phi[1] == c->phi[0] ? e1 : exp_(-c->phi[1] * time);
-        float dd1 = qd[2], dd2 = qd[3];
-        float p1 = fabs_(dd1 * s_delta[0]), p2 = fabs_(dd2 * s_delta[1]);
-        float n1 = p1 + layer(c->epsilon[0], e1, c->epsilon_floor);
-        float n2 = p2 + layer(c->epsilon[1], e2, c->epsilon_floor);
-        float rn = 1.0f / (n1 * n2);
-        float f1 = p1 * n2 * rn, f2 = p2 * n1 * rn;
-        float acc1 = -c->d_delta[0] * (1.0f + f1) * dd1;
-        float acc2 = -c->d_delta[1] * (1.0f + f2) * dd2;
-        /* M = -B_dt S^-1, then the damped least squares M^T (M M^T + mu^2 sigma^2 I)^-1 a. */
-        float m11 = -(t.b13 * t.si11 + c->w[0] * t.si12), m12 = -(t.b13 * t.si12 + c->w[0] * t.si22);
-        float m21 = -(t.b14 * t.si11 + c->w[1] * t.si12), m22 = -(t.b14 * t.si12 + c->w[1] * t.si22);
-        float g11 = m11 * m11 + m12 * m12, g12 = m11 * m21 + m12 * m22, g22 = m21 * m21 + m22 * m22;
-        float reg = c->mu2 * (g11 + g22) * 0.5f;
-        g11 += reg;
-        g22 += reg;
-        float det = g11 * g22 - g12 * g12;
-        if (!(det <= 0.0f)) {
-            float inv = 1.0f / det;
-            float y1 = (g22 * acc1 - g12 * acc2) * inv, y2 = (g11 * acc2 - g12 * acc1) * inv;
-            tau[0] += m11 * y1 + m21 * y2;
-            tau[1] += m12 * y1 + m22 * y2;
-        }
-    }
-    if (!finite(tau[0] + tau[1])) {
-        trip(c, SINGULAR);
-        return safe(tau_out);
-    }
-    tau[0] = saturate(tau[0], c->tau_max[0]);
-    tau[1] = saturate(tau[1], c->tau_max[1]);
-    /* The integral, not while a joint's torque is at its limit pushing the way its error asks;
-     * |K_i z| within its bound. */
-    if (integral) {
+        if (!motor_law(c, &t, q, qd, th_d, th_d1, th_d2, time, tau))
+            return safe(tau_out);
         for (int i = 0; i < 2; i++) {
             float k = c->ki[i], e = pending[i];
             int winding = fabs_(tau[i]) >= c->tau_max[i] && e * tau[i] < 0.0f;
@@ -485,6 +492,8 @@ int NAME(flexarm_c_motor_step)(struct fc_ctrl *c, const struct fc_state *s, floa
             next = next < -bound ? -bound : next;
             c->z[i] = next > bound ? bound : next;
         }
+    } else if (!motor_law(c, &t, q, qd, th_d, th_d1, th_d2, time, tau)) {
+        return safe(tau_out);
     }
 
     /* The prediction: q'' = B^-1 (u - C q' - K q - D q') with u = (tau, C_a V_a), one
