@@ -446,6 +446,8 @@ impl<T: Real> Cubic<T> {
 }
 
 /// A joint trajectory the controllers can follow (an enum, so the firmware needs no `dyn`).
+/// A byte tag (`repr(u8)`): the motor step's match on it is a compare, where the niche's
+/// decoding took six instructions and a jump table (docs/performance.md, issue 31's third round).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(u8)]
 pub enum JointTrajectory<T> {
