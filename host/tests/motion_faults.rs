@@ -695,7 +695,7 @@ fn slipping_after_homing(joint: usize, rate: f64, d: f64, tolerance: f32) -> (Ru
 /// coupling: `flexarm_core::homing::Homing::mismatch`). Held 0.05 rad from its switch, the
 /// joint drifts back at the slip rate and crosses it; the board latches the reading there, off
 /// the switch's angle by the slip: `ReferenceMismatch`, category 0, in the motor period of the
-/// crossing, at slip rates from 0.01 to 0.3 rad/s; at 1 rad/s `Runaway` comes first
+/// crossing, at slip rates from 0.01 to 0.3 rad/s; at 1 and 2 rad/s `Runaway` comes first
 /// (docs/safety.md prints the table). Without
 /// the check (`tolerance` = ∞) nothing sees it: the joint runs on past the switch.
 #[test]
@@ -705,7 +705,7 @@ fn a_slipping_encoder_is_caught_at_its_limit_switch() {
     );
     println!("|---|---|---|---|---|---|---|");
     for joint in [0, 1] {
-        for rate in [0.01, 0.03, 0.1, 0.3, 1.0] {
+        for rate in [0.01, 0.03, 0.1, 0.3, 1.0, 2.0] {
             let (mut r, from) = slipping_after_homing(joint, rate, 0.05, TOLERANCE);
             r.run(0.05 / rate + 1.0);
             let (t, at) = r.fault_at.unwrap_or((f64::NAN, r.theta()));
