@@ -324,8 +324,9 @@ fn experiments(c: &mut Client, o: &Options, r: &mut Report) -> Result<(), Consol
                 false,
                 e.to_string(),
                 want,
-                "the board's homing configuration (BoardConfig::homing: method, angle, \
-                 search direction) and the index, end stop or switch it names"
+                "the board's homing configuration (the [homing] table of the file the firmware \
+                 is generated from, docs/firmware.md: method, angle, search direction) and the \
+                 index, end stop or switch it names"
                     .into(),
             );
             return Ok(());
