@@ -446,9 +446,10 @@ pub fn read_model(
         arm: ArmSpec,
         // Read by `read_piezo`; named here so that no other table passes.
         piezo: Option<toml::Table>,
-        // The board's homing, read by `crate::board_homing` (`flexarm-sim firmware-params`).
-        #[allow(dead_code)]
-        homing: Option<toml::Table>,
+        // The board's homing, read by `crate::board_homing` (`flexarm-sim firmware-params`):
+        // let through, not kept.
+        #[serde(rename = "homing")]
+        _homing: Option<serde::de::IgnoredAny>,
     }
     let f: ModelFile = toml::from_str(text).map_err(|e| ScenarioError(de_error(text, &e)))?;
     if f.piezo.is_none() {
