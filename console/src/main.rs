@@ -654,19 +654,19 @@ fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), Co
             force,
         } => {
             // The folder first: a folder the tool may not write is named before the arm moves.
-            let dir = flexarm_host::outdir::OutDir::open(&out, "identify", force)
-                .map_err(ConsoleError::Io)?;
+            let dir =
+                flexarm_host::outdir::OutDir::open(&out, &format!("identify:{experiment}"), force)
+                    .map_err(ConsoleError::Io)?;
             use flexarm_host::identify::{self, workflow};
             let staging = dir.staging();
-            let report = match experiment.as_str() {
+            // The record is written first; a fit that refuses it keeps it (`keep_record`).
+            let fitted: Result<String, String> = match experiment.as_str() {
                 "inertia" => {
                     let plan = inertia_plan(moves);
                     let trace = flexarm_console::identify::inertia(c, &plan)?;
                     workflow::save_record(staging, "inertia", &trace).map_err(ConsoleError::Io)?;
                     let geometry = identify::geometry::Geometry::default();
-                    workflow::save_inertia(staging, &trace, None, &geometry, None)
-                        .map_err(ConsoleError::Failed)?
-                        .1
+                    workflow::save_inertia(staging, &trace, None, &geometry, None).map(|f| f.1)
                 }
                 "modes" => {
                     let plan = modes_plan(seconds, volts, tap);
@@ -682,8 +682,7 @@ fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), Co
                         None,
                         true,
                     )
-                    .map_err(ConsoleError::Failed)?
-                    .1
+                    .map(|f| f.1)
                 }
                 "decay" => {
                     let plan = decay_plan(taps, volts, spacing);
@@ -708,8 +707,7 @@ fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), Co
                         &[paper],
                         true,
                     )
-                    .map_err(ConsoleError::Failed)?
-                    .1
+                    .map(|f| f.1)
                 }
                 _ => {
                     let flexarm_console::identify::FrictionRun {
@@ -729,8 +727,11 @@ fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), Co
                             .join(", ")
                     );
                     identify::save_friction(staging, &heading, &cruises, &fits, None, true)
-                        .map_err(ConsoleError::Io)?
                 }
+            };
+            let report = match fitted {
+                Ok(report) => report,
+                Err(e) => return Err(keep_record(dir, &experiment, &out, &e)),
             };
             let files = dir.commit().map_err(ConsoleError::Io)?;
             print!("{report}");
@@ -766,6 +767,27 @@ fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), Co
         Action::Config(action) => config(c, action, model.as_deref(), dump)?,
     }
     Ok(())
+}
+
+/// A fit that refused its record: the record alone goes into the output folder (an experiment
+/// on the arm is not to be run again for a fit's sake), and the error says where it is and how
+/// to fit it again (`cargo sim identify EXPERIMENT --record`, with other settings).
+fn keep_record(
+    dir: flexarm_host::outdir::OutDir,
+    experiment: &str,
+    out: &std::path::Path,
+    e: &str,
+) -> ConsoleError {
+    let record = format!("{experiment}_record.csv");
+    let kept = out.join(&record);
+    ConsoleError::Failed(match dir.commit_only(&[&record]) {
+        Ok(_) => format!(
+            "identify {experiment}: {e}; the record is kept as {} (`cargo sim identify {experiment} --record {}` fits it again)",
+            kept.display(),
+            kept.display()
+        ),
+        Err(c) => format!("identify {experiment}: {e}; the record was not kept: {c}"),
+    })
 }
 
 /// Every argument against its rule before anything connects, starts QEMU or arms

@@ -536,7 +536,8 @@ fn main_result(cli: Cli) -> Result<()> {
                 None => flexarm_host::identify::geometry::Geometry::default(),
             };
             use flexarm_host::identify::workflow;
-            let dir = OutDir::open(&out, "identify", force)?;
+            // Each experiment's files are its own: the steps share a folder.
+            let dir = OutDir::open(&out, &format!("identify:{experiment}"), force)?;
             let b = workflow::Bench {
                 cfg: &cfg,
                 known: truth.is_some(),

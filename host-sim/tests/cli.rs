@@ -826,6 +826,18 @@ fn identify_model_asks_for_both_records() {
 #[test]
 fn identify_decay_checks_a_model_file() {
     let out = fresh_dir("identify-decay");
+    // The folder already holds the modes step's files: each experiment's files are its own,
+    // and another's run leaves them (docs/identification.md's steps share `out/identify`).
+    let (ok, _, stderr) = sim(&[
+        "identify",
+        "modes",
+        "--seconds",
+        "20",
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
     let model = scratch(
         "decay_model.toml",
         &flexarm_host::identify::model::model_fragment(
@@ -850,7 +862,11 @@ fn identify_decay_checks_a_model_file() {
             ".flexarm-outputs",
             "decay.csv",
             "decay.md",
-            "decay_record.csv"
+            "decay_record.csv",
+            "modes.md",
+            "modes_frf.csv",
+            "modes_record.csv",
+            "modes_stability.csv"
         ]
     );
     // The plant is the paper's model: the model file (the same arm) predicts it as the

@@ -177,6 +177,21 @@ impl OutDir {
     }
 }
 
+impl OutDir {
+    /// [`Self::commit`] of the staged files named in `keep` only, the others discarded: what a
+    /// command keeps of a failed run (an experiment's record whose fit failed), its earlier
+    /// files gone as after any commit.
+    pub fn commit_only(self, keep: &[&str]) -> Result<Vec<String>, String> {
+        for entry in fs::read_dir(&self.staging).map_err(|e| io("read", &self.staging, e))? {
+            let entry = entry.map_err(|e| io("read", &self.staging, e))?;
+            if !keep.iter().any(|k| entry.file_name() == *k) {
+                fs::remove_file(entry.path()).map_err(|e| io("remove", &entry.path(), e))?;
+            }
+        }
+        self.commit()
+    }
+}
+
 /// An exclusive lock on the folder `dir`, held until the file is dropped.
 fn lock(dir: &Path) -> Result<fs::File, String> {
     let file = fs::File::open(dir).or_else(|_| {
@@ -305,6 +320,33 @@ mod tests {
         write(&o, "notes.md", "generated");
         o.commit().unwrap();
         assert_eq!(fs::read_to_string(d.join("notes.md")).unwrap(), "generated");
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn commit_only_keeps_the_named_files_and_drops_the_earlier_run() {
+        let d = scratch("only");
+        let o = OutDir::open(&d, "identify:modes", false).unwrap();
+        write(&o, "modes_record.csv", "1");
+        write(&o, "modes.md", "1");
+        o.commit().unwrap();
+        // The next run's fit fails after writing part of its report: the record alone stays.
+        let o = OutDir::open(&d, "identify:modes", false).unwrap();
+        write(&o, "modes_record.csv", "2");
+        write(&o, "modes.md", "half");
+        assert_eq!(
+            o.commit_only(&["modes_record.csv"]).unwrap(),
+            ["modes_record.csv"]
+        );
+        assert_eq!(fs::read_to_string(d.join("modes_record.csv")).unwrap(), "2");
+        assert!(
+            !d.join("modes.md").exists(),
+            "neither the half report nor the earlier one"
+        );
+        assert_eq!(
+            fs::read_to_string(d.join(MANIFEST)).unwrap(),
+            "identify:modes\tmodes_record.csv\n"
+        );
         fs::remove_dir_all(&d).unwrap();
     }
 
