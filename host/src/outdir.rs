@@ -175,9 +175,7 @@ impl OutDir {
         let _ = fs::remove_dir_all(&self.staging);
         Ok(names.into_iter().collect())
     }
-}
 
-impl OutDir {
     /// [`Self::commit`] of the staged files named in `keep` only, the others discarded: what a
     /// command keeps of a failed run (an experiment's record whose fit failed), its earlier
     /// files gone as after any commit.

@@ -396,21 +396,10 @@ fn choose(found: &[Found]) -> Option<usize> {
     let middle: Vec<f64> = (0..found[first].kept.len())
         .map(|k| median(agreeing.iter().map(|&i| found[i].kept[k]).collect()))
         .collect();
-    let off = |i: usize| -> f64 {
-        found[i]
-            .kept
-            .iter()
-            .zip(&middle)
-            .map(|(f, m)| (f / m).ln().abs())
-            .sum()
-    };
-    let near = |i: usize| {
-        found[i]
-            .kept
-            .iter()
-            .zip(&middle)
-            .all(|(f, m)| (f / m - 1.0).abs() <= order::F_TOL)
-    };
+    // Each kept mode of length `i` over the median of its kind.
+    let ratios = |i: usize| found[i].kept.iter().zip(&middle).map(|(f, m)| f / m);
+    let off = |i: usize| -> f64 { ratios(i).map(|r| r.ln().abs()).sum() };
+    let near = |i: usize| ratios(i).all(|r| (r - 1.0).abs() <= order::F_TOL);
     agreeing.iter().copied().find(|&i| near(i)).or_else(|| {
         agreeing
             .into_iter()
