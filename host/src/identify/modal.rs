@@ -53,11 +53,25 @@
 //! the fit refuses (gate `consistency`, each length's resonances listed); when no shorter copy
 //! fits, the whole record's stands, unchecked, and the report says so. A whole record's fit
 //! that found the modes but does not resolve them (two resonances whose half-power bands meet,
-//! a damping ratio as uncertain as itself) is a finding of one length too: when at least three
+//! a damping ratio as uncertain as itself, a product below) is a finding of one length too: when at least three
 //! shorter copies fit, the choice is made among them and the report quotes the refusal. Any
 //! other refusal of the whole record's stands: on the family's long arm, a torque-tap record
 //! whose whole record saw no mode 2 has three shorter copies that agree on a 6.79 Hz resonance
 //! the arm does not have.
+//!
+//! # A faint patch
+//!
+//! A patch excited far below the amplifier's window (1 V or 10 mV of noise where the lab's
+//! records use 100 V, the base's torque noise as usual) leaves its part of the film's reading
+//! under the film's noise, and the fit, which has the film in its regressor, then gives
+//! piezo→film products of noise: on the family's arms 1.7 to 95 times the truth's, some of
+//! them negative (which the sign test above reads as a reversed film). Their spreads tell:
+//! 9 % to 2.6 times the product on those records; on the kept modes of every fit `cargo sim
+//! identify family` accepts, at most 4.6 % (3.1 % on its model-grade records). A kept mode whose product's spread exceeds
+//! [`G_SPREAD`] (10 %, the bound the family's products are checked to) is refused (gate
+//! `uncertainty`, a finding of one length: shorter copies that resolve it outvote it, as
+//! above); `bad_records_are_refused_with_the_gate` in `host/tests/identify_family.rs` has the
+//! case.
 
 use rustfft::num_complex::Complex64;
 
@@ -176,7 +190,7 @@ fn gate<E: From<IdentifyError>>(name: &str, msg: String) -> E {
 
 /// Why one length's fit refused, and whether it found the controller's modes but does not
 /// resolve them (two resonances whose half-power bands meet, a damping ratio as uncertain as
-/// itself): that is a finding of the length, which the others may outvote ("Five lengths").
+/// itself, a piezo→film product's spread over [`G_SPREAD`]): that is a finding of the length, which the others may outvote ("Five lengths").
 #[derive(Debug)]
 struct Refusal {
     error: IdentifyError,
@@ -305,6 +319,10 @@ fn dense_band(freq: &[f64], covered: &[bool]) -> Option<(f64, f64)> {
 /// Shares of the record its shorter copies leave out at its end (module docs, "Five
 /// lengths").
 pub const TRIMS: [f64; 4] = [0.005, 0.01, 0.015, 0.02];
+
+/// The largest spread of a kept mode's piezo→film product, as a share of the product
+/// (module docs, "A faint patch").
+pub const G_SPREAD: f64 = 0.1;
 
 /// Fits the record: which inputs, the spectra, the band, the stabilization diagram, every
 /// resonance and the controller's modes (module docs); then checks the modes up to the
@@ -774,7 +792,32 @@ fn fit_at_length(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, Refus
     let sp = restrict(&sp, band);
     let fit = finish(sp, selection, inputs, held, (band, resolved), set, notes)?;
     lowest_is_first(&fit, bottom)?;
+    products_resolved(&fit)?;
     Ok(fit)
+}
+
+/// The gate `uncertainty` on the kept modes' piezo→film products: none known no better than
+/// [`G_SPREAD`] of itself (module docs, "A faint patch"). After the band's and the length's
+/// gates, whose diagnosis of a record that misses a mode is the more useful.
+fn products_resolved(fit: &ModesFit) -> Result<(), Refusal> {
+    let Some((k, m)) = fit
+        .kept
+        .iter()
+        .zip(&fit.modes)
+        .find(|(_, m)| m.sigma[2] > G_SPREAD * m.piezo_film)
+    else {
+        return Ok(());
+    };
+    Err(unresolved(
+        "uncertainty",
+        format!(
+            "mode {k} at {:.3} Hz: a piezo→film product of {:.4e} ± {:.1e} V/V·s⁻², known no better than {:.0} %: the patch's excitation is too faint for the film to show it; excite the patch near the amplifier's window",
+            m.hz(),
+            m.piezo_film,
+            m.sigma[2],
+            G_SPREAD * 100.0
+        ),
+    ))
 }
 
 /// Where the band's bottom comes from.
@@ -1076,7 +1119,7 @@ fn finish(
         if reversed > 0 && reversed == all.len() {
             return Err(gate(
                 "physical consistency",
-                "every piezo→film product comes out negative: the film's sign is reversed (run `flexarm bringup`, or flip the recording's v_f)".into(),
+                "every piezo→film product comes out negative: the film's sign is reversed (run `flexarm bringup`, or flip the recording's v_f), or the patch's excitation is too faint for the film to show it (the fit then gives the products of noise: excite the patch near the amplifier's window)".into(),
             ));
         }
         // A collocated patch and film make every mode's product `k_a k_s Δφ'²` positive:
