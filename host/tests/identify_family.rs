@@ -137,14 +137,15 @@ fn bad_records_are_refused_with_the_gate() {
     use flexarm_host::identify::modal::{FitSettings, fit_modes};
     use flexarm_host::identify::record::ModesRecord;
     use flexarm_host::lab::{self, Actuator, Excite, Shape};
-    let arm = family().into_iter().find(|a| a.name == "slow").unwrap();
-    let bench = arm.bench().unwrap();
-    let light = family()
-        .into_iter()
-        .find(|a| a.name == "light")
-        .unwrap()
-        .bench()
-        .unwrap();
+    let bench_of = |name: &str| {
+        family()
+            .into_iter()
+            .find(|a| a.name == name)
+            .unwrap()
+            .bench()
+            .unwrap()
+    };
+    let (bench, light) = (bench_of("slow"), bench_of("light"));
     let modes_error =
         |trace: &[flexarm_host::sim::Sample], range: f64| match ModesRecord::from_trace(
             trace,
@@ -193,13 +194,7 @@ fn bad_records_are_refused_with_the_gate() {
     // The patch excited at 1 V instead of 100 (the base's torque noise as usual): on the
     // payload arm its products come out 1.7 times the truth's, known to 18 % (modal.rs, "A
     // faint patch").
-    let payload = family()
-        .into_iter()
-        .find(|a| a.name == "payload")
-        .unwrap()
-        .bench()
-        .unwrap();
-    let mut faint = Kind::Random.plan(&payload);
+    let mut faint = Kind::Random.plan(&bench_of("payload"));
     faint.excite[0].amplitude = 1.0;
     let m = modes_error(&lab::record(&faint).unwrap(), 10.0);
     assert!(
