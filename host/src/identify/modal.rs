@@ -53,11 +53,11 @@
 //! the fit refuses (gate `consistency`, each length's resonances listed); when no shorter copy
 //! fits, the whole record's stands, unchecked, and the report says so. A whole record's fit
 //! that found the modes but does not resolve them (two resonances whose half-power bands meet,
-//! a damping ratio as uncertain as itself, a product below) is a finding of one length too: when at least three
-//! shorter copies fit, the choice is made among them and the report quotes the refusal. Any
-//! other refusal of the whole record's stands: on the family's long arm, a torque-tap record
-//! whose whole record saw no mode 2 has three shorter copies that agree on a 6.79 Hz resonance
-//! the arm does not have.
+//! a damping ratio as uncertain as itself, a product below) is a finding of one length too:
+//! when at least three shorter copies fit, the choice is made among them and the report quotes
+//! the refusal. Any other refusal of the whole record's stands: on the family's long arm, a
+//! torque-tap record whose whole record saw no mode 2 has three shorter copies that agree on a
+//! 6.79 Hz resonance the arm does not have.
 //!
 //! # A faint patch
 //!
@@ -67,11 +67,11 @@
 //! piezo→film products of noise: on the family's arms 1.7 to 95 times the truth's, some of
 //! them negative (which the sign test above reads as a reversed film). Their spreads tell:
 //! 9 % to 2.6 times the product on those records; on the kept modes of every fit `cargo sim
-//! identify family` accepts, at most 4.6 % (3.1 % on its model-grade records). A kept mode whose product's spread exceeds
-//! [`G_SPREAD`] (10 %, the bound the family's products are checked to) is refused (gate
-//! `uncertainty`, a finding of one length: shorter copies that resolve it outvote it, as
-//! above); `bad_records_are_refused_with_the_gate` in `host/tests/identify_family.rs` has the
-//! case.
+//! identify family` accepts, at most 4.6 % (3.1 % on its model-grade records). A kept mode
+//! whose product's spread exceeds [`G_SPREAD`] (10 %, the bound the family's products are
+//! checked to) is refused (gate `uncertainty`, a finding of one length: shorter copies that
+//! resolve it outvote it, as above); `bad_records_are_refused_with_the_gate` in
+//! `host/tests/identify_family.rs` has the case.
 
 use rustfft::num_complex::Complex64;
 
@@ -190,7 +190,8 @@ fn gate<E: From<IdentifyError>>(name: &str, msg: String) -> E {
 
 /// Why one length's fit refused, and whether it found the controller's modes but does not
 /// resolve them (two resonances whose half-power bands meet, a damping ratio as uncertain as
-/// itself, a piezo→film product's spread over [`G_SPREAD`]): that is a finding of the length, which the others may outvote ("Five lengths").
+/// itself, a piezo→film product's spread over [`G_SPREAD`]): that is a finding of the length,
+/// which the others may outvote ("Five lengths").
 #[derive(Debug)]
 struct Refusal {
     error: IdentifyError,
