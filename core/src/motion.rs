@@ -356,7 +356,9 @@ impl<T: Real> MotionMonitor<T> {
             if h <= th.derate {
                 return r;
             }
-            let f = ((h - th.derate) / (th.floor - th.derate)).min(T::one());
+            // A compare, not `min` (a call to `fminf` on the Cortex-M4F); NaN gives 1 as `min`.
+            let x = (h - th.derate) / (th.floor - th.derate);
+            let f = if x < T::one() { x } else { T::one() };
             let derated = r - (r - c) * f;
             if derated < r { derated } else { r }
         })

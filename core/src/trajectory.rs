@@ -212,6 +212,12 @@ impl<T: Real> Trapezoid<T> {
             qdd: self.amplitude * sdd,
         }
     }
+
+    /// [`Self::sample`], called ([`JointTrajectory::sample`]).
+    #[inline(never)]
+    fn sample_called(&self, t: T) -> JointTarget<T> {
+        self.sample(t)
+    }
 }
 
 /// A circle of the tip in the base frame, run once with a trapezoidal profile of its phase,
@@ -379,7 +385,10 @@ impl<T: Real> Cubic<T> {
     /// Desired motion at `t` [s]: the curve on `[0, T)`; `start` at its speed `v0` before (and
     /// for a NaN time), `end` at `v1` from `T` on, both without acceleration. Right-continuous
     /// at `t = 0` like [`Profile::sample`]: the sample the motor loop takes at the start (and
-    /// holds for a period) already carries the curve's acceleration.
+    /// holds for a period) already carries the curve's acceleration. Called, like the
+    /// circle's: inlined into [`JointTrajectory::sample`]'s called function, its frame would
+    /// sit under every kind's sample (the stack bound of the tasks that sample).
+    #[inline(never)]
     pub fn sample(&self, t: T) -> JointTarget<T> {
         let z = T::zero();
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // deliberate: NaN must take this branch
@@ -473,16 +482,30 @@ impl<T: Real> JointTrajectory<T> {
     }
 
     /// Desired joint motion at `t` [s] since the start.
+    ///
+    /// The trapezoid, the paper's move, is sampled in place, the other kinds in one called
+    /// function: the motor step's path with a trapezoid is one compare, where a jump table
+    /// took it before, and it spills less (docs/performance.md, issue 31's fourth round); a
+    /// hold pays a call.
     #[inline(always)]
     pub fn sample(&self, t: T) -> JointTarget<T> {
         match self {
-            Self::Hold(q) => JointTarget::rest(*q),
             Self::Trapezoid(tr) => tr.sample(t),
             // Rebuilt from its values: the sample of a called function then reaches the caller
-            // in registers like the others, not through one stack slot that every arm writes
-            // and the motor law reads back.
-            Self::Circle(c) => c.sample(t).rebuilt(),
-            Self::Cubic(c) => c.sample(t).rebuilt(),
+            // in registers like the trapezoid's, not through the stack slot the call wrote.
+            _ => self.sample_other(t).rebuilt(),
+        }
+    }
+
+    /// [`Self::sample`] of every kind, called; each arm a call too, so that its frame adds
+    /// nothing to the stack of the tasks that sample.
+    #[inline(never)]
+    fn sample_other(&self, t: T) -> JointTarget<T> {
+        match self {
+            Self::Hold(q) => JointTarget::rest(*q),
+            Self::Trapezoid(tr) => tr.sample_called(t),
+            Self::Circle(c) => c.sample(t),
+            Self::Cubic(c) => c.sample(t),
         }
     }
 }

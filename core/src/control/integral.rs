@@ -129,7 +129,65 @@ impl<T: Real> Integral<T> {
             }
             let next = *z + e * dt;
             let bound = limit / k;
-            *z = next.max(-bound).min(bound);
+            // Compares, not `max`/`min` (calls to `fmaxf`/`fminf` on the Cortex-M4F).
+            let next = if next < -bound { -bound } else { next };
+            *z = if next > bound { bound } else { next };
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A joint held off its reference (joint 1 behind, joint 2 ahead) with torques inside their
+    /// limits: `z` grows by `θ̃ dt` a period until `|K_i z|` reaches `integral_limit`, and stays
+    /// there, exactly, with the error's sign.
+    #[test]
+    fn integral_grows_by_the_error_then_stops_at_its_bound() {
+        let mut gains = Gains::<f32>::default();
+        gains.ki = Vector2::new(5.0, 2.0);
+        gains.integral_limit = Vector2::new(0.02, 0.01);
+        let target = JointTarget::rest(Vector2::new(0.5, -0.25));
+        let error = Vector2::new(-0.01, 0.03);
+        let theta = target.q + error;
+        let (dt, tau, tau_max) = (1e-3, Vector2::new(1.0, -1.0), Vector2::new(10.0, 10.0));
+        let mut integral = Integral::new();
+        let step = |i: &mut Integral<f32>| {
+            i.prepare(&gains, &target, (theta, Vector2::zeros()), Some(theta));
+            let mut law_error = theta - target.q + i.offset(&gains);
+            i.finish(&gains, &mut law_error, (tau, tau_max), dt);
+            // The law's error taken back to θ − θ_d.
+            assert!((law_error - error).abs().max() < 1e-6);
+        };
+        step(&mut integral);
+        assert!((integral.z - error * dt).abs().max() < 1e-9);
+        for _ in 0..2000 {
+            step(&mut integral);
+        }
+        let bound = gains.integral_limit.component_div(&gains.ki);
+        assert_eq!(integral.z, Vector2::new(-bound.x, bound.y));
+    }
+
+    /// Saturated and pushing the way the error asks: no more integral (anti-windup).
+    #[test]
+    fn a_saturated_joint_does_not_wind_up() {
+        let mut gains = Gains::<f32>::default();
+        gains.ki = Vector2::new(5.0, 5.0);
+        let target = JointTarget::rest(Vector2::zeros());
+        // Joint 1 behind (θ̃ < 0) pushed with +τ_max; joint 2 behind pushed against.
+        let theta = Vector2::new(-0.01, -0.01);
+        let tau_max = Vector2::new(2.0, 2.0);
+        let mut integral = Integral::new();
+        integral.prepare(&gains, &target, (theta, Vector2::zeros()), Some(theta));
+        let mut law_error = theta;
+        integral.finish(
+            &gains,
+            &mut law_error,
+            (Vector2::new(2.0, -2.0), tau_max),
+            1e-3,
+        );
+        assert_eq!(integral.z.x, 0.0);
+        assert!(integral.z.y < 0.0);
     }
 }
