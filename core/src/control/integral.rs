@@ -129,7 +129,9 @@ impl<T: Real> Integral<T> {
             }
             let next = *z + e * dt;
             let bound = limit / k;
-            // Compares, not `max`/`min` (calls to `fmaxf`/`fminf` on the Cortex-M4F).
+            // Compares, not `max`/`min` (calls to `fmaxf`/`fminf` on the Cortex-M4F). A NaN
+            // (no path makes one: the error is a checked encoder's) would reach the law, whose
+            // torque that is not finite trips a fault, where `max` made it `−bound`.
             let next = if next < -bound { -bound } else { next };
             *z = if next > bound { bound } else { next };
         }
