@@ -6,6 +6,7 @@
 //! Decay: the same taps by the patch at the same pose. Inertia: the same random trapezoids of
 //! both joints about the same pose.
 
+use std::path::Path;
 use std::time::Duration;
 
 use flexarm_core::Vector2;
@@ -13,7 +14,7 @@ use flexarm_core::trajectory::JointTrajectory;
 use flexarm_host::identify::decay::DecayPlan;
 use flexarm_host::identify::inertia::{self, InertiaPlan};
 use flexarm_host::identify::modes::{Excitation, ModesPlan, excitation};
-use flexarm_host::identify::{self, Cruise, Friction};
+use flexarm_host::identify::{self, Cruise};
 use flexarm_host::sim::Sample;
 use flexarm_link::Command;
 use flexarm_link::msg::{Mode, Move, Param, Telemetry};
@@ -50,6 +51,30 @@ fn samples(c: &Client, frames: &[Telemetry], from: u64) -> Vec<Sample> {
         .filter(|f| f.tick >= from)
         .filter_map(|f| record::sample(f, (f.tick - from) as f64 / motor_hz, &model))
         .collect()
+}
+
+/// `frames` as the experiment's record, its time from the first frame.
+fn record_of(c: &Client, frames: &[Telemetry]) -> Vec<Sample> {
+    samples(c, frames, frames.first().map_or(0, |f| f.tick))
+}
+
+/// An experiment's outcome for its fit, once its record is written: whatever ended the
+/// experiment (`run`), what it recorded is written to `dir` as `<name>_record.csv`, and its
+/// error, if any, becomes the fit's, which keeps the record (`flexarm identify`). An
+/// experiment that failed before it recorded anything is its own error.
+pub fn recorded<T>(
+    dir: &Path,
+    name: &str,
+    run: Result<T, ConsoleError>,
+    record: &[Sample],
+) -> Result<Result<T, String>, ConsoleError> {
+    match run {
+        Err(e) if record.is_empty() => Err(e),
+        run => {
+            identify::workflow::save_record(dir, name, record).map_err(ConsoleError::Io)?;
+            Ok(run.map_err(|e| e.to_string()))
+        }
+    }
 }
 
 /// A trapezoid to `target` in `time` seconds with `ramp` seconds of acceleration at each end,
@@ -98,24 +123,23 @@ fn to_pose(c: &mut Client, pose: Vector2<f64>) -> Result<Vec<Telemetry>, Console
     interrupt::collect(c, 0.5)
 }
 
-/// The friction experiment's outcome.
-pub struct FrictionRun {
-    /// Every leg's cruise.
-    pub cruises: Vec<Cruise>,
-    /// Each joint's fit.
-    pub fits: [Friction; 2],
-    /// The record: every leg's telemetry on the board's clock, one sample per frame.
-    pub record: Vec<Sample>,
-}
-
-/// Runs the experiment on the holding arm: every joint's cruises, the fits and the record.
-pub fn friction(c: &mut Client, speeds: &[f64], cruise: f64) -> Result<FrictionRun, ConsoleError> {
+/// Runs the friction experiment on the holding arm and returns every leg's cruise; `record`
+/// receives every leg's telemetry on the board's clock, one sample per frame, as it comes,
+/// a failed leg's too. A leg that fails (the move, its cruise, the link, an interrupt) ends
+/// the experiment with its error and leaves `record` holding what was recorded
+/// ([`recorded`]). A fit of the record (`cargo sim identify friction --record`) finds the same cruises.
+pub fn friction(
+    c: &mut Client,
+    speeds: &[f64],
+    cruise: f64,
+    record: &mut Vec<Sample>,
+) -> Result<Vec<Cruise>, ConsoleError> {
     holding(c)?;
     identify::check_speeds(speeds).map_err(|e| ConsoleError::Usage(format!("--speeds: {e}")))?;
     c.subscribe_fastest(1)?;
     let mut frames = interrupt::collect(c, 0.0)?;
     let from = held(&frames);
-    let (mut cruises, mut record) = (Vec::new(), Vec::new());
+    let mut cruises = Vec::new();
     for joint in 0..2 {
         for &v in speeds {
             for leg in identify::legs(from, joint, v, cruise)
@@ -123,7 +147,9 @@ pub fn friction(c: &mut Client, speeds: &[f64], cruise: f64) -> Result<FrictionR
             {
                 let what = format!("joint {} at {v} rad/s", joint + 1);
                 frames.clear();
-                run_move(c, &what, leg.target, (leg.time, leg.ramp), &mut frames)?;
+                let moved = run_move(c, &what, leg.target, (leg.time, leg.ramp), &mut frames);
+                record.extend(samples(c, &frames, 0));
+                moved?;
                 // The move's start: the last frame before the reference leaves the start pose.
                 let start = frames
                     .windows(2)
@@ -132,10 +158,7 @@ pub fn friction(c: &mut Client, speeds: &[f64], cruise: f64) -> Result<FrictionR
                     })
                     .map_or(0, |w| w[0].tick);
                 let cruise = identify::cruise_of(&samples(c, &frames, start), joint, leg.window)
-                    .map_err(|e| ConsoleError::Unexpected(format!("{what}: {e}")))?;
-                // The record on the board's clock (uptime), every leg's frames in order: a fit
-                // of the record (`cargo sim identify friction --record`) finds the same cruises.
-                record.extend(samples(c, &frames, 0));
+                    .map_err(|e| ConsoleError::Failed(format!("{what}: {e}")))?;
                 println!(
                     "identify: {what}: {:+.4} rad/s, {:+.5} N·m",
                     cruise.speed, cruise.torque
@@ -145,13 +168,7 @@ pub fn friction(c: &mut Client, speeds: &[f64], cruise: f64) -> Result<FrictionR
         }
     }
     let _ = c.ask(Command::Unsubscribe)?;
-    let fits =
-        identify::fit_joints(&cruises).map_err(|e| ConsoleError::Unexpected(e.to_string()))?;
-    Ok(FrictionRun {
-        cruises,
-        fits,
-        record,
-    })
+    Ok(cruises)
 }
 
 /// The modes experiment (`flexarm_host::identify::modes`) on the holding arm: a move to the
@@ -159,20 +176,29 @@ pub fn friction(c: &mut Client, speeds: &[f64], cruise: f64) -> Result<FrictionR
 /// write; joint 2's moves, each one `move trapezoid`), the piezo loop off throughout (`k_c`
 /// written back at the end, and the bias back to 0 on every path). Returns the record, one
 /// sample per telemetry frame (lost frames are refused by the fit), and the amplifier's window
-/// [V] the steps stayed inside.
-pub fn modes(c: &mut Client, plan: &ModesPlan) -> Result<(Vec<Sample>, (f64, f64)), ConsoleError> {
+/// [V] the steps stayed inside; `record` receives the record also when the experiment fails
+/// ([`recorded`]).
+pub fn modes(
+    c: &mut Client,
+    plan: &ModesPlan,
+    record: &mut Vec<Sample>,
+) -> Result<(f64, f64), ConsoleError> {
     let ex = excitation(plan).map_err(|e| ConsoleError::Usage(e.to_string()))?;
-    excite(c, plan.pose, &ex, plan.seconds, plan.piezo_volts)
+    excite(c, plan.pose, &ex, (plan.seconds, plan.piezo_volts), record)
 }
 
 /// The free decay (`flexarm_host::identify::decay`) on the holding arm: a move to the plan's
 /// pose, then its taps (two parameter writes each: the bias on, then off), the piezo loop off
-/// throughout, as [`modes`]. Returns the record and the amplifier's window [V].
-pub fn decay(c: &mut Client, plan: &DecayPlan) -> Result<(Vec<Sample>, (f64, f64)), ConsoleError> {
+/// throughout, as [`modes`]. Returns the amplifier's window [V]; `record` receives the record.
+pub fn decay(
+    c: &mut Client,
+    plan: &DecayPlan,
+    record: &mut Vec<Sample>,
+) -> Result<(f64, f64), ConsoleError> {
     let ex = plan
         .excitation()
         .map_err(|e| ConsoleError::Usage(e.to_string()))?;
-    excite(c, plan.pose, &ex, plan.seconds(), plan.volts)
+    excite(c, plan.pose, &ex, (plan.seconds(), plan.volts), record)
 }
 
 /// Runs `seconds` of the excitation `ex` at `pose` on the holding arm, its bias at most
@@ -182,9 +208,9 @@ fn excite(
     c: &mut Client,
     pose: Vector2<f64>,
     ex: &Excitation,
-    seconds: f64,
-    volts: f64,
-) -> Result<(Vec<Sample>, (f64, f64)), ConsoleError> {
+    (seconds, volts): (f64, f64),
+    record: &mut Vec<Sample>,
+) -> Result<(f64, f64), ConsoleError> {
     holding(c)?;
     let window = (c.get(Param::VaMin)?, c.get(Param::VaMax)?);
     let volts = volts as f32;
@@ -197,24 +223,28 @@ fn excite(
     c.subscribe_fastest(1)?;
     let k_c = c.get(Param::Kc)?;
     c.set(Param::Kc, 0.0)?;
-    let outcome = timeline(c, pose, ex, seconds);
+    let mut frames = Vec::new();
+    let outcome = timeline(c, pose, ex, seconds, &mut frames);
+    *record = record_of(c, &frames);
     // The bias is cleared by the drive when it leaves holding; written back here otherwise.
     if c.status()?.mode == Mode::Armed {
         let _ = c.ask(Command::Set(Param::VaBias, 0.0))?;
     }
     let _ = c.ask(Command::Unsubscribe)?;
     c.set(Param::Kc, k_c)?;
-    Ok((outcome?, (f64::from(window.0), f64::from(window.1))))
+    outcome.map(|()| (f64::from(window.0), f64::from(window.1)))
 }
 
-/// The excitation's bias writes and moves in its order, from a hold at `pose`.
+/// The excitation's bias writes and moves in its order, from a hold at `pose`, their
+/// telemetry into `frames`.
 fn timeline(
     c: &mut Client,
     pose: Vector2<f64>,
     ex: &Excitation,
     seconds: f64,
-) -> Result<Vec<Sample>, ConsoleError> {
-    let mut frames = to_pose(c, pose)?;
+    frames: &mut Vec<Telemetry>,
+) -> Result<(), ConsoleError> {
+    frames.extend(to_pose(c, pose)?);
     let (mut b, mut m) = (0, 0);
     while b < ex.bias.len() || m < ex.moves.len() {
         let next_bias = ex.bias.get(b).map_or(f64::INFINITY, |x| x.0);
@@ -243,22 +273,28 @@ fn timeline(
                     f64::from(tr.profile.ramp()),
                 );
                 let what = format!("move {m} of the experiment");
-                run_move(c, &what, target, timing, &mut frames)?;
+                run_move(c, &what, target, timing, frames)?;
             }
         }
     }
-    let from = frames.first().map_or(0, |f| f.tick);
-    Ok(samples(c, &frames, from))
+    Ok(())
 }
 
 /// The inertia experiment (`flexarm_host::identify::inertia`) on the holding arm: a move to the
 /// plan's pose, then its moves one after another, each a `move trapezoid` the drive validates.
-/// Returns the record, one sample per telemetry frame; lost frames are refused by the fit.
-pub fn inertia(c: &mut Client, plan: &InertiaPlan) -> Result<Vec<Sample>, ConsoleError> {
+/// `record` receives the record, one sample per telemetry frame, also when a move fails
+/// ([`recorded`]); lost frames are refused by the fit.
+pub fn inertia(
+    c: &mut Client,
+    plan: &InertiaPlan,
+    record: &mut Vec<Sample>,
+) -> Result<(), ConsoleError> {
     holding(c)?;
     let moves = inertia::moves(plan).map_err(|e| ConsoleError::Usage(e.to_string()))?;
     c.subscribe_fastest(1)?;
-    let outcome = inertia_moves(c, plan, &moves);
+    let mut frames = Vec::new();
+    let outcome = inertia_moves(c, plan, &moves, &mut frames);
+    *record = record_of(c, &frames);
     let _ = c.ask(Command::Unsubscribe)?;
     outcome
 }
@@ -267,17 +303,70 @@ fn inertia_moves(
     c: &mut Client,
     plan: &InertiaPlan,
     moves: &[inertia::InertiaMove],
-) -> Result<Vec<Sample>, ConsoleError> {
-    let mut frames = to_pose(c, plan.pose)?;
+    frames: &mut Vec<Telemetry>,
+) -> Result<(), ConsoleError> {
+    frames.extend(to_pose(c, plan.pose)?);
     for (k, m) in moves.iter().enumerate() {
         let what = format!(
             "move {} of {} of the inertia experiment",
             k + 1,
             moves.len()
         );
-        run_move(c, &what, m.target, (m.time, m.ramp()), &mut frames)?;
+        run_move(c, &what, m.target, (m.time, m.ramp()), frames)?;
     }
     frames.extend(interrupt::collect(c, 0.5)?);
-    let from = frames.first().map_or(0, |f| f.tick);
-    Ok(samples(c, &frames, from))
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flexarm_core::Vector4;
+    use flexarm_core::plant::State;
+
+    fn sample(t: f64) -> Sample {
+        Sample {
+            t,
+            x: State {
+                q: Vector4::new(0.1, -0.2, 1e-4, 0.0),
+                qd: Vector4::zeros(),
+            },
+            q_d: Vector2::new(0.1, -0.2),
+            delta_seen: Vector2::zeros(),
+            tau: Vector2::new(0.3, -0.1),
+            v_a: 0.0,
+            v_f: 0.01,
+            tip: 0.0,
+        }
+    }
+
+    /// An experiment that fails after it recorded (a move that ended in a fault, a lost link,
+    /// an interrupt) leaves its record written, the error handed to the fit, which keeps it;
+    /// one that failed before recording anything is its own error; a finished one is written
+    /// the same way and goes on to its fit.
+    #[test]
+    fn a_failed_experiment_keeps_what_it_recorded() {
+        let dir = std::env::temp_dir().join(format!("flexarm-recorded-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let record: Vec<Sample> = (0..50).map(|k| f64::from(k) * 1e-3).map(sample).collect();
+        let written = dir.join("friction_record.csv");
+        let failed: Result<(), _> = Err(ConsoleError::Failed("joint 2 at 0.5 rad/s: x".into()));
+        let fit = recorded(&dir, "friction", failed, &record).unwrap();
+        assert_eq!(fit, Err("joint 2 at 0.5 rad/s: x".into()));
+        let back = flexarm_host::output::read_csv(&written).unwrap();
+        assert_eq!(back.len(), record.len());
+        assert_eq!(back.last().map(|s| s.tau), record.last().map(|s| s.tau));
+
+        std::fs::remove_file(&written).unwrap();
+        let silent: Result<(), _> = Err(ConsoleError::Silent);
+        assert!(matches!(
+            recorded(&dir, "friction", silent, &[]),
+            Err(ConsoleError::Silent)
+        ));
+        assert!(!written.exists());
+
+        assert_eq!(recorded(&dir, "modes", Ok(7), &record).unwrap(), Ok(7));
+        assert!(dir.join("modes_record.csv").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -659,64 +659,61 @@ fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), Co
                     .map_err(ConsoleError::Io)?;
             use flexarm_host::identify::{self, workflow};
             let staging = dir.staging();
-            // The record is written first; a fit that refuses it keeps it (`keep_record`).
+            // The record is written first, whatever ended the experiment; a failed experiment
+            // or a fit that refuses the record keeps it (`recorded`, `keep_record`).
+            use flexarm_console::identify::{self as run, recorded};
+            let mut trace = Vec::new();
+            let film_range =
+                f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
             let fitted: Result<String, String> = match experiment.as_str() {
                 "inertia" => {
-                    let plan = inertia_plan(moves);
-                    let trace = flexarm_console::identify::inertia(c, &plan)?;
-                    workflow::save_record(staging, "inertia", &trace).map_err(ConsoleError::Io)?;
-                    let geometry = identify::geometry::Geometry::default();
-                    workflow::save_inertia(staging, &trace, None, &geometry, None).map(|f| f.1)
+                    let outcome = run::inertia(c, &inertia_plan(moves), &mut trace);
+                    recorded(staging, "inertia", outcome, &trace)?.and_then(|()| {
+                        let geometry = identify::geometry::Geometry::default();
+                        workflow::save_inertia(staging, &trace, None, &geometry, None).map(|f| f.1)
+                    })
                 }
                 "modes" => {
-                    let plan = modes_plan(seconds, volts, tap);
-                    let (trace, window) = flexarm_console::identify::modes(c, &plan)?;
-                    let film_range =
-                        f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
-                    workflow::save_record(staging, "modes", &trace).map_err(ConsoleError::Io)?;
-                    workflow::save_modes(
-                        staging,
-                        ("The modes experiment over the link", &trace),
-                        (film_range, window),
-                        &flexarm_host::identify::modal::FitSettings::default(),
-                        None,
-                        true,
-                    )
-                    .map(|f| f.1)
+                    let outcome = run::modes(c, &modes_plan(seconds, volts, tap), &mut trace);
+                    recorded(staging, "modes", outcome, &trace)?.and_then(|window| {
+                        workflow::save_modes(
+                            staging,
+                            ("The modes experiment over the link", &trace),
+                            (film_range, window),
+                            &flexarm_host::identify::modal::FitSettings::default(),
+                            None,
+                            true,
+                        )
+                        .map(|f| f.1)
+                    })
                 }
                 "decay" => {
                     let plan = decay_plan(taps, volts, spacing);
-                    let (trace, window) = flexarm_console::identify::decay(c, &plan)?;
-                    let film_range =
-                        f64::from(flexarm_core::supervisor::SensorLimits::<f32>::default().v_f_max);
-                    workflow::save_record(staging, "decay", &trace).map_err(ConsoleError::Io)?;
+                    let band = decay_band(band.as_deref(), spacing)?;
+                    let outcome = run::decay(c, &plan, &mut trace);
                     let paper = (
                         "paper's model",
                         flexarm_core::params::ArmParams::default(),
                         flexarm_core::control::piezo::PiezoPatch::paper(),
                     );
-                    workflow::save_decay(
-                        staging,
-                        &trace,
-                        (film_range, window),
-                        (&plan, decay_band(band.as_deref(), spacing)?),
-                        &flexarm_host::sim::SimConfig::board(
-                            f64::from(c.hello.motor_hz),
-                            f64::from(c.hello.piezo_hz),
-                        ),
-                        &[paper],
-                        true,
-                    )
-                    .map(|f| f.1)
+                    recorded(staging, "decay", outcome, &trace)?.and_then(|window| {
+                        workflow::save_decay(
+                            staging,
+                            &trace,
+                            (film_range, window),
+                            (&plan, band),
+                            &flexarm_host::sim::SimConfig::board(
+                                f64::from(c.hello.motor_hz),
+                                f64::from(c.hello.piezo_hz),
+                            ),
+                            &[paper],
+                            true,
+                        )
+                        .map(|f| f.1)
+                    })
                 }
                 _ => {
-                    let flexarm_console::identify::FrictionRun {
-                        cruises,
-                        fits,
-                        record,
-                    } = flexarm_console::identify::friction(c, &speeds, cruise)?;
-                    workflow::save_record(staging, "friction", &record)
-                        .map_err(ConsoleError::Io)?;
+                    let outcome = run::friction(c, &speeds, cruise, &mut trace);
                     let heading = format!(
                         "Identified on {} over the link: each joint at {} rad/s, both ways, {cruise} s of cruise averaged (`flexarm identify friction`, docs/identification.md).",
                         c.hello.build,
@@ -726,7 +723,10 @@ fn execute(c: &mut Client, command: Action, prepared: Prepared) -> Result<(), Co
                             .collect::<Vec<_>>()
                             .join(", ")
                     );
-                    identify::save_friction(staging, &heading, &cruises, &fits, None, true)
+                    recorded(staging, "friction", outcome, &trace)?.and_then(|cruises| {
+                        let fits = identify::fit_joints(&cruises).map_err(|e| e.to_string())?;
+                        identify::save_friction(staging, &heading, &cruises, &fits, None, true)
+                    })
                 }
             };
             let report = match fitted {
