@@ -147,9 +147,11 @@ mod tests {
     /// there, exactly, with the error's sign.
     #[test]
     fn integral_grows_by_the_error_then_stops_at_its_bound() {
-        let mut gains = Gains::<f32>::default();
-        gains.ki = Vector2::new(5.0, 2.0);
-        gains.integral_limit = Vector2::new(0.02, 0.01);
+        let gains = Gains::<f32> {
+            ki: Vector2::new(5.0, 2.0),
+            integral_limit: Vector2::new(0.02, 0.01),
+            ..Default::default()
+        };
         let target = JointTarget::rest(Vector2::new(0.5, -0.25));
         let error = Vector2::new(-0.01, 0.03);
         let theta = target.q + error;
@@ -174,8 +176,10 @@ mod tests {
     /// Saturated and pushing the way the error asks: no more integral (anti-windup).
     #[test]
     fn a_saturated_joint_does_not_wind_up() {
-        let mut gains = Gains::<f32>::default();
-        gains.ki = Vector2::new(5.0, 5.0);
+        let gains = Gains::<f32> {
+            ki: Vector2::new(5.0, 5.0),
+            ..Default::default()
+        };
         let target = JointTarget::rest(Vector2::zeros());
         // Joint 1 behind (θ̃ < 0) pushed with +τ_max; joint 2 behind pushed against.
         let theta = Vector2::new(-0.01, -0.01);
