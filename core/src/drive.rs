@@ -696,7 +696,9 @@ impl<T: Real> Drive<T> {
     #[inline(never)]
     fn search_torque(&self, rated: Vector2<T>) -> Vector2<T> {
         let [a, b] = self.homing.config.joints;
-        Vector2::new(a.torque.min(rated.x), b.torque.min(rated.y))
+        // Compares, not `min` (a call to `fminf` on the Cortex-M4F).
+        let lower = |x: T, r: T| if x < r { x } else { r };
+        Vector2::new(lower(a.torque, rated.x), lower(b.torque, rated.y))
     }
 
     /// The motors' heat lowers the torque limit (`crate::motion`): the controller saturates at
