@@ -127,7 +127,8 @@ fn to_pose(c: &mut Client, pose: Vector2<f64>) -> Result<Vec<Telemetry>, Console
 /// receives every leg's telemetry on the board's clock, one sample per frame, as it comes,
 /// a failed leg's too. A leg that fails (the move, its cruise, the link, an interrupt) ends
 /// the experiment with its error and leaves `record` holding what was recorded
-/// ([`recorded`]). A fit of the record (`cargo sim identify friction --record`) finds the same cruises.
+/// ([`recorded`]). A fit of the record (`cargo sim identify friction --record`) finds the same
+/// cruises.
 pub fn friction(
     c: &mut Client,
     speeds: &[f64],
@@ -174,10 +175,9 @@ pub fn friction(
 /// The modes experiment (`flexarm_host::identify::modes`) on the holding arm: a move to the
 /// plan's pose, then its blocks (the patch's bias steps while holding, each one parameter
 /// write; joint 2's moves, each one `move trapezoid`), the piezo loop off throughout (`k_c`
-/// written back at the end, and the bias back to 0 on every path). Returns the record, one
-/// sample per telemetry frame (lost frames are refused by the fit), and the amplifier's window
-/// [V] the steps stayed inside; `record` receives the record also when the experiment fails
-/// ([`recorded`]).
+/// written back at the end, and the bias back to 0 on every path). Returns the amplifier's
+/// window [V] the steps stayed inside; `record` receives the record, one sample per telemetry
+/// frame (lost frames are refused by the fit), also when the experiment fails ([`recorded`]).
 pub fn modes(
     c: &mut Client,
     plan: &ModesPlan,
