@@ -17,6 +17,7 @@
 //! Units SI: rad, s; joint frames of `crate::model`.
 
 use crate::Vector2;
+use crate::limits::saturate;
 use crate::params::Gains;
 use crate::real::Real;
 use crate::trajectory::JointTarget;
@@ -127,13 +128,10 @@ impl<T: Real> Integral<T> {
             if k <= T::zero() || winding {
                 continue;
             }
-            let next = *z + e * dt;
-            let bound = limit / k;
-            // Compares, not `max`/`min` (calls to `fmaxf`/`fminf` on the Cortex-M4F). A NaN
-            // (no path makes one: the error is a checked encoder's) would reach the law, whose
-            // torque that is not finite trips a fault, where `max` made it `−bound`.
-            let next = if next < -bound { -bound } else { next };
-            *z = if next > bound { bound } else { next };
+            // `|K_i z| ≤ integral_limit` by the actuators' saturation (compares, where `max`
+            // and `min` are calls to `fmaxf`/`fminf` on the Cortex-M4F; a NaN, which no path
+            // makes, gives 0).
+            *z = saturate(*z + e * dt, limit / k);
         }
     }
 }
