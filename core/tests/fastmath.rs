@@ -42,6 +42,27 @@ fn special_values() {
 }
 
 #[test]
+fn the_whole_fast_range_stays_accurate_up_to_its_bound() {
+    // |x| ≤ 2¹³ is reduced without folding: the three-part split keeps the error near one ulp
+    // of 1.0 out to the bound, and the first folded arguments beyond it are as close.
+    let err = |x: f32| {
+        let (s, c) = sin_cos(x);
+        let (se, ce) = libm::sincos(f64::from(x));
+        (f64::from(s) - se).abs().max((f64::from(c) - ce).abs())
+    };
+    let near_bound = worst(8000.0, 8192.0, 200_000, err).max(worst(-8192.0, -8000.0, 200_000, err));
+    let above = (1..=1000)
+        .map(|i| f32::from_bits(8192.0_f32.to_bits() + i))
+        .flat_map(|x| [x, -x])
+        .map(err)
+        .fold(0.0, f64::max);
+    println!("max |error| near ±8192 rad: {near_bound:.3e}, just beyond (folded): {above:.3e}");
+    assert!(near_bound < 2e-7, "{near_bound}");
+    // Folding subtracts turns·2π rounded to f32 (an ulp of 8192 is 9.8e-4 rad).
+    assert!(above < 1e-3, "{above}");
+}
+
+#[test]
 fn exp_relative_error_is_a_few_ulp_over_its_range() {
     let worst = worst(-87.0, 88.0, 2_000_000, |x| {
         let e = libm::exp(f64::from(x));

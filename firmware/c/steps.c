@@ -110,16 +110,19 @@ static inline float from_bits(uint32_t u) {
 /* 1.5 * 2^23: y + S - S rounds |y| < 2^22 to the nearest integer, whose low bits y + S holds. */
 #define ROUND_SHIFT 12582912.0f
 
-/* sin and cos for |x| <= 1e4: a three-part Cody-Waite reduction by pi/2 and minimax
+/* sin and cos for |x| <= 2^13: a three-part Cody-Waite reduction by pi/2 and minimax
  * polynomials of degree 7 and 8 on |r| <= pi/4 (the coefficients of core/src/fastmath.rs). */
 static void sin_cos(float x, float *s_out, float *c_out) {
-    if (!(fabs_(x) <= 1.0e4f)) {
+    /* |x| <= 2^13 as one integer comparison (fastmath.rs: in_fast_range; NaN and inf fail it).
+     * The textbook (y + S) - S below, not the Rust's S - (y + S): GCC reuses the register
+     * that holds S either way, and its Eq. 7 is a cycle slower with the negated form. */
+    if (!(bits(x) << 1 <= 0x8C000000u)) {
         /* Far outside any joint range (never in the bench): folded by whole turns. */
         if (!finite(x)) {
             *s_out = *c_out = __builtin_nanf("");
             return;
         }
-        while (fabs_(x) > 1.0e4f)
+        while (fabs_(x) > 8192.0f)
             x -= (float)(int32_t)(x / 6.2831855f) * 6.2831855f;
     }
     float shifted = x * 0.63661975f + ROUND_SHIFT;
