@@ -741,3 +741,42 @@ fn the_geometrys_patched_stretch_gives_the_truth_links_shapes() {
         assert!(e.contains(&format!("`patch.{key}`")), "{bad}: {e}");
     }
 }
+
+/// A 7.1 s modes record of the QEMU arm over the link (modes 4.716 and 14.395 Hz; `flexarm
+/// --qemu --arm identify modes OUT --seconds 5`, its columns cut to the fit's). Its whole
+/// record's fit finds mode 1 at 5.02 ± 0.03 Hz, 6 % off, and passes every other gate; its
+/// first three quarters are refused, and so is it (`host/src/identify/modal.rs`, "Three
+/// quarters").
+#[test]
+fn a_modes_record_too_short_for_its_fit_is_refused() {
+    use flexarm_host::identify::modal::{FitSettings, PART, fit_modes};
+    use flexarm_host::identify::record::ModesRecord;
+    let text = include_str!("data/qemu_modes_7s.csv");
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let column = |i: usize| rows.iter().map(|r| r[i]).collect::<Vec<f64>>();
+    let rec = ModesRecord {
+        dt: rows[1][0] - rows[0][0],
+        v_a: column(5),
+        v_f: column(6),
+        theta: [column(1), column(2)],
+        tau: [column(3), column(4)],
+        v_f_range: 10.0,
+        v_a_window: (-200.0, 200.0),
+    };
+    let seconds = rows.len() as f64 * rec.dt;
+    assert!((seconds - 7.08).abs() < 0.01, "{seconds}");
+    let e = fit_modes(&rec, &FitSettings::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("gate `record length`: its first 75 % (5.3 s) are refused"),
+        "{e}"
+    );
+    // The shortest record the message asks for: four thirds of this one, rounded up.
+    let asked = (seconds / PART).ceil();
+    assert!(e.ends_with(&format!("record at least {asked:.0} s")), "{e}");
+}
