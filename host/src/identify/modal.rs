@@ -65,19 +65,19 @@
 //! the arm's and vouch for them: on the QEMU arm (modes 4.716 and 14.395 Hz), a 7.1 s modes
 //! record over the link (`flexarm --qemu --arm identify modes OUT --seconds 5`) gave mode 1 at
 //! 5.017 ± 0.030 Hz, 6 % and ten standard deviations off, and passed every other gate. So the
-//! record's first [`PART`] (three quarters) is fitted too, the same way (its five lengths, its
-//! own band): when it is refused, or its controller's modes are not the whole record's (within
-//! `2 F_TOL`), the fit refuses (gate `record length`, the shortest record that could pass:
-//! four thirds of this one). On that record the three quarters were refused (a mode 2 product
-//! known to 17 %; `host/tests/identify.rs` keeps the record); records of 11.0, 13.6, 20.0
-//! and 40.5 s of the same arm pass, their three quarters within 0.3 % of them, and those of
-//! 7.6, 9.5 and 10.2 s are refused the same way. The check costs one fit of the part (its five
-//! lengths only when that one does not vouch), and records: a record must be a third longer
-//! than the shortest whose fit is right. On the family's random records (`Kind::Random`, 11
-//! to 21 s) it refused four: three whose fits were right (the patch arm's at 11 and 15 s,
-//! within 0.3 %, and the long arm's at 15 s, within 0.5 %) and the payload arm's at 21 s (its
-//! three quarters refused by the gate `modes`), asking for 15 to 28 s; the lab's records (60
-//! to 120 s) all pass (`host/tests/identify_family.rs`).
+//! record's first [`PART`] (three quarters) is fitted too, in its own band (one fit, and its
+//! five lengths when that one does not vouch): when it is refused, or its controller's modes
+//! are not the whole record's (within `2 F_TOL`), the fit refuses (gate `record length`, the
+//! shortest record that could pass: four thirds of this one). On that record the three quarters
+//! were refused (a mode 2 product known to 17 %; `host/tests/identify.rs` keeps the record);
+//! records of 11.0, 13.6, 20.0 and 40.5 s of the same arm pass, their three quarters within 0.3
+//! % of them, and those of 7.6, 9.5 and 10.2 s are refused the same way. The check costs a fit
+//! more, and records: a record must be a third longer than the shortest whose fit is right. On
+//! the family's random records (`Kind::Random`, 11 to 21 s) it refused four: three whose fits
+//! were right (the patch arm's at 11 and 15 s, within 0.3 %, and the long arm's at 15 s, within
+//! 0.5 %) and the payload arm's at 21 s (its three quarters refused by the gate `modes`),
+//! asking for 15 to 28 s; the lab's records (60 to 120 s) all pass
+//! (`host/tests/identify_family.rs`).
 //!
 //! # A faint patch
 //!
@@ -347,8 +347,8 @@ pub const G_SPREAD: f64 = 0.1;
 
 /// Fits the record: which inputs, the spectra, the band, the stabilization diagram, every
 /// resonance and the controller's modes (module docs); then checks the modes up to the
-/// controller's against the record's shorter copies ("Five lengths"). Each refusal names its
-/// gate.
+/// controller's against the record's shorter copies ("Five lengths") and against its first
+/// three quarters ("Three quarters"). Each refusal names its gate.
 pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, IdentifyError> {
     let fit = fit_lengths(rec, set)?;
     let n = rec.v_f.len();
