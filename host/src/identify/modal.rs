@@ -364,8 +364,7 @@ pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, Ident
             ),
         )
     };
-    let hz = |f: &ModesFit| -> Vec<f64> { f.kept.iter().map(|k| f.all[k - 1].hz()).collect() };
-    let whole_hz = hz(&fit);
+    let whole_hz = Found::of(&fit).kept;
     // Why the first part does not vouch for the whole record's modes, if it does not.
     let disagree = |shorter: Result<ModesFit, IdentifyError>| -> Option<String> {
         let shorter = match shorter {
@@ -379,23 +378,17 @@ pub fn fit_modes(rec: &ModesRecord, set: &FitSettings) -> Result<ModesFit, Ident
                 ));
             }
         };
-        let part_hz = hz(&shorter);
+        let part_hz = Found::of(&shorter).kept;
         let same = whole_hz.len() == part_hz.len()
             && whole_hz
                 .iter()
                 .zip(&part_hz)
                 .all(|(a, b)| order::same_mode(*a, *b));
-        let list = |x: &[f64]| {
-            x.iter()
-                .map(|h| format!("{h:.3}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
         (!same).then(|| {
             format!(
                 "give the controller's modes at {} Hz, the whole record at {} Hz",
-                list(&part_hz),
-                list(&whole_hz)
+                listed(&part_hz),
+                listed(&whole_hz)
             )
         })
     };
@@ -462,6 +455,14 @@ impl Found {
     fn sees(&self, hz: f64) -> bool {
         self.hz.iter().any(|f| order::same_mode(*f, hz))
     }
+}
+
+/// Frequencies [Hz] as a message lists them: `4.716, 14.395`.
+fn listed(hz: &[f64]) -> String {
+    hz.iter()
+        .map(|h| format!("{h:.3}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Whether most of the lengths that fit (at least two) found a resonance at `hz` [Hz].
@@ -531,12 +532,7 @@ fn agree(
         Err(r) => return Err(r.error),
     };
     fits.extend(shorter);
-    let list = |f: &Found| {
-        f.hz.iter()
-            .map(|h| format!("{h:.3}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    let list = |f: &Found| listed(&f.hz);
     if fits.len() == 1 {
         let mut f = fits.swap_remove(0).1;
         f.notes
