@@ -50,6 +50,7 @@ use crate::controller::{Controller, MotorReport};
 use crate::fault::Fault;
 use crate::homing::{self, Homing, Search};
 use crate::kinematics::{Elbow, Planar2};
+use crate::limits::lower;
 use crate::motion::{MotionLimits, MotionMonitor, MotionSample, Verdict};
 use crate::observer::Measurement;
 use crate::real::Real;
@@ -696,8 +697,6 @@ impl<T: Real> Drive<T> {
     #[inline(never)]
     fn search_torque(&self, rated: Vector2<T>) -> Vector2<T> {
         let [a, b] = self.homing.config.joints;
-        // Compares, not `min` (a call to `fminf` on the Cortex-M4F).
-        let lower = |x: T, r: T| if x < r { x } else { r };
         Vector2::new(lower(a.torque, rated.x), lower(b.torque, rated.y))
     }
 

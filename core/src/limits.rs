@@ -18,6 +18,20 @@ pub fn saturate<T: Real>(x: T, limit: T) -> T {
     }
 }
 
+/// The smaller of `a` and `b` by one ordered comparison: `a` if `a < b`, else `b` (so a NaN `a`
+/// gives `b`). Not `min`: on the Cortex-M4F `f32::min` is a call to `fminf`.
+#[inline(always)]
+pub fn lower<T: Real>(a: T, b: T) -> T {
+    if a < b { a } else { b }
+}
+
+/// The larger of `a` and `b` by one ordered comparison: `a` if `a > b`, else `b` (so a NaN `a`
+/// gives `b`). Not `max`: on the Cortex-M4F `f32::max` is a call to `fmaxf`.
+#[inline(always)]
+pub fn upper<T: Real>(a: T, b: T) -> T {
+    if a > b { a } else { b }
+}
+
 /// Component-wise [`saturate`].
 pub fn saturate2<T: Real>(x: &Vector2<T>, limit: &Vector2<T>) -> Vector2<T> {
     Vector2::new(saturate(x.x, limit.x), saturate(x.y, limit.y))

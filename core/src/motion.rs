@@ -55,6 +55,7 @@
 //! Units SI: rad, rad/s, N·m, s; joint frames of `crate::model`.
 
 use crate::fault::Fault;
+use crate::limits::lower;
 use crate::model::Model;
 use crate::real::Real;
 use crate::{Matrix2, Vector2, Vector4};
@@ -356,11 +357,9 @@ impl<T: Real> MotionMonitor<T> {
             if h <= th.derate {
                 return r;
             }
-            // A compare, not `min` (a call to `fminf` on the Cortex-M4F); NaN gives 1 as `min`.
-            let x = (h - th.derate) / (th.floor - th.derate);
-            let f = if x < T::one() { x } else { T::one() };
-            let derated = r - (r - c) * f;
-            if derated < r { derated } else { r }
+            // A NaN share gives 1, as `min` would.
+            let f = lower((h - th.derate) / (th.floor - th.derate), T::one());
+            lower(r - (r - c) * f, r)
         })
     }
 

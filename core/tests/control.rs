@@ -6,7 +6,7 @@ use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoMaterial, PiezoPatch, RateFilter};
 use flexarm_core::control::robust::{joint_torque_for_modal_accel, modal_damping_accel};
 use flexarm_core::control::tracking::eq7;
-use flexarm_core::limits::saturate;
+use flexarm_core::limits::{lower, saturate, upper};
 use flexarm_core::model::Model;
 use flexarm_core::params::{ArmParams, Gains, Limits};
 use flexarm_core::real::all_finite;
@@ -92,6 +92,20 @@ proptest! {
         prop_assert!(y.is_finite() && y.abs() <= lim);
         if x.is_nan() { prop_assert_eq!(y, 0.0); }
         if x.is_finite() && x.abs() <= lim { prop_assert_eq!(y, x); }
+    }
+
+    /// `lower` and `upper` are `min` and `max` for ordered pairs, and give `b` when `a` is NaN
+    /// (where `min` and `max` drop the NaN too): what the derating, the search torque and the
+    /// boundary layer's floor rely on.
+    #[test]
+    fn lower_and_upper_are_min_and_max_with_a_nan_first_giving_the_second(a in any::<u32>(), b in any::<u32>()) {
+        let (a, b) = (f32::from_bits(a), f32::from_bits(b));
+        prop_assume!(!b.is_nan());
+        let same = |x: f32, y: f32| x.to_bits() == y.to_bits() || (x == 0.0 && y == 0.0);
+        prop_assert!(same(lower(a, b), a.min(b)), "lower({a}, {b}) = {}", lower(a, b));
+        prop_assert!(same(upper(a, b), a.max(b)), "upper({a}, {b}) = {}", upper(a, b));
+        prop_assert_eq!(lower(f32::NAN, b).to_bits(), b.to_bits());
+        prop_assert_eq!(upper(f32::NAN, b).to_bits(), b.to_bits());
     }
 
     /// `all_finite` never passes a NaN or ±∞, and passes every group of physical magnitude.

@@ -22,6 +22,7 @@
 //! `Δτ = Mᵀ (M Mᵀ + μ² σ² I)⁻¹ a_Δ`, `σ² = ‖M‖²_F / 2`, which stays bounded where `M` loses rank.
 
 use crate::Vector2;
+use crate::limits::upper;
 use crate::model::Terms;
 use crate::params::Gains;
 use crate::real::Real;
@@ -42,15 +43,8 @@ pub fn modal_damping_accel<T: Real>(
     } else {
         (-gains.phi.y * t).lexp()
     };
-    // The boundary layer, floored. Not `max`: on the Cortex-M4F that is a call to `fmaxf`.
-    let layer = |eps: T, decay: T| {
-        let l = eps * decay;
-        if l > gains.epsilon_floor {
-            l
-        } else {
-            gains.epsilon_floor
-        }
-    };
+    // The boundary layer, floored.
+    let layer = |eps: T, decay: T| upper(eps * decay, gains.epsilon_floor);
     let (dd1, dd2) = (delta_dot.x, delta_dot.y);
     let p1 = (dd1 * s_delta.x).abs();
     let p2 = (dd2 * s_delta.y).abs();
