@@ -45,13 +45,13 @@ pub struct Model<T> {
     /// The parameters the model was built from.
     pub params: ArmParams<T>,
     /// `A = I_h1 + I_1 + m1 a1²/4 + (m_h2 + m2) a1²` [kg·m²].
-    a_const: T,
+    pub(crate) a_const: T,
     /// `J(0) = I_h2 + I_2x + m2 a2²/3` [kg·m²].
-    j_const: T,
+    pub(crate) j_const: T,
     /// `a1 · m2 a2/2` [kg·m²].
-    a1_s2: T,
+    pub(crate) a1_s2: T,
     /// `a1 v_j` [√kg·m²].
-    a1_v: Vector2<T>,
+    pub(crate) a1_v: Vector2<T>,
     /// `wᵀw = w1² + w2²` [kg·m²], the constant part of the Schur complement's `s22`.
     w_sq: T,
     /// `K = diag(ω_j²)` [1/s²].

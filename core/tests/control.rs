@@ -5,7 +5,7 @@
 use flexarm_core::control::motor::{MotorController, MotorLaw};
 use flexarm_core::control::piezo::{PiezoGains, PiezoLaw, PiezoMaterial, PiezoPatch, RateFilter};
 use flexarm_core::control::robust::{joint_torque_for_modal_accel, modal_damping_accel};
-use flexarm_core::control::tracking::eq7;
+use flexarm_core::control::tracking::{Reference, eq7, eq7_joints, eq7_torques};
 use flexarm_core::limits::{lower, saturate, upper};
 use flexarm_core::model::Model;
 use flexarm_core::params::{ArmParams, Gains, Limits};
@@ -29,6 +29,32 @@ proptest! {
         let u = eq7(&m, &Gains::default(), &q, &qd, &target);
         let qdd = m.acceleration(&q, &qd, &u).unwrap();
         prop_assert!((qdd - qdd_d).abs().max() < 1e-9, "q̈ = {}, want {}", qdd, qdd_d);
+    }
+
+    /// `eq7_torques`, Eq. 7 written out flat in the order LLVM compiles fastest, is the motor
+    /// law's `eq7_joints` on the same terms and reference to the bit, in `f32` as the firmware
+    /// runs it: the reordering changed no rounding.
+    #[test]
+    fn eq7_torques_is_the_motor_laws_eq7_to_the_bit(
+        x in prop::array::uniform16(-1.0..1.0f32),
+        k in prop::array::uniform3(0.0..1.0f32),
+    ) {
+        let m = Model::new(ArmParams::<f32>::default());
+        let g = Gains::<f32> {
+            lambda: Vector4::new(1.0 + 9.0 * k[0], 2.0 + 9.0 * k[1], 3.0 + 9.0 * k[2], 4.0),
+            ..Gains::default()
+        };
+        let q = Vector4::new(3.0 * x[0], 3.0 * x[1], 0.02 * x[2], 0.005 * x[3]);
+        let qd = Vector4::new(4.0 * x[4], 4.0 * x[5], 2.0 * x[6], 1.0 * x[7]);
+        let target = JointTarget {
+            q: Vector2::new(3.0 * x[8], 3.0 * x[9]),
+            qd: Vector2::new(4.0 * x[10], 4.0 * x[11]),
+            qdd: Vector2::new(20.0 * x[12], 20.0 * x[13]),
+        };
+        let flat = eq7_torques(&m, &g, &q, &qd, &target);
+        let r = Reference::new(&g.lambda, &q, &qd, &target);
+        let law = eq7_joints(&m.terms(&q), &qd, &g.kp, &r);
+        prop_assert!(flat.x.to_bits() == law.x.to_bits() && flat.y.to_bits() == law.y.to_bits(), "{flat} against {law}");
     }
 
     /// The robust modal term never injects energy into the modes, and its damping lies in
